@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs the Debian packages OmniPoint needs that are missing. Usage: install_deps.sh [--tests]
+set -euo pipefail
+
+packages=(g++ cmake ninja-build ccache pkg-config
+          libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
+          libopencv-dev)
+if [[ "${1:-}" == "--tests" ]]; then
+  # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/.
+  packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if (( ${#missing[@]} )); then
+  echo "installing: ${missing[*]}"
+  SUDO=""
+  [[ $(id -u) -ne 0 ]] && SUDO=sudo
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

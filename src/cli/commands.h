@@ -1,0 +1,11 @@
+#pragma once
+// Each subcommand lives in its own file and registers itself on the root app. A command's
+// callback only parses arguments, calls the library and reports; errors are thrown as
+// exceptions and turned into one line on stderr by main().
+namespace CLI {
+class App;
+}
+
+namespace omnipoint::cli {
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,23 @@
+// omnipoint: the command-line tool (contract in DESIGN.md).
+#include <CLI/CLI.hpp>
+
+#include <exception>
+#include <iostream>
+
+#include "cli/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "omnipoint 0.1.0");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "omnipoint: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
