@@ -238,3 +238,10 @@ TEST(Safetensors, NonContiguousInputIsWrittenInLogicalOrder) {
   const SafetensorsFile back = parse_safetensors(bytes.data(), bytes.size(), "t");
   EXPECT_TRUE(at::equal(back.tensors.at("t"), t));
 }
+
+// nlohmann::json parses and frees iteratively, so a hostile header cannot overflow the stack.
+TEST(Safetensors, DeeplyNestedHeaderIsRejected) {
+  const std::size_t depth = 1000000;
+  const std::string header = "{\"a\":" + std::string(depth, '[') + std::string(depth, ']') + "}";
+  expect_parse_error(make_file(header), "tensor 'a': entry is not a JSON object");
+}
