@@ -77,6 +77,17 @@ TEST(Image, ReadsSixteenBitGreyAndRgba) {
   const at::Tensor rgba = read_image_values(dir / "a.png");
   ASSERT_EQ(rgba.sizes(), (at::IntArrayRef{3, 3, 4}));
   EXPECT_EQ(rgba[0][2][0].item<float>(), 22.0f);
+  // A 2x2 grey+alpha PNG (colour type 4), grey levels 10 20 / 30 40, made by hand.
+  const std::string grey_alpha(
+      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x02\x00\x00\x00"
+      "\x02\x08\x04\x00\x00\x00\xd8\xbf\xc5\xaf\x00\x00\x00\x12\x49\x44\x41\x54\x78\x9c\x63\xe0\xfa"
+      "\x2f\xc2\xc0\x20\xd7\xa0\xf1\x1f\x00\x0c\x2f\x02\xe3\xd2\x7b\x00\x39\x00\x00\x00\x00\x49\x45"
+      "\x4e\x44\xae\x42\x60\x82", 75);
+  std::ofstream(dir / "la.png", std::ios::binary) << grey_alpha;
+  const at::Tensor la = read_image(dir / "la.png");
+  ASSERT_EQ(la.sizes(), (at::IntArrayRef{2, 2, 3}));
+  EXPECT_TRUE(at::allclose(la.select(2, 1), at::tensor({10.0f, 20.0f, 30.0f, 40.0f}).view({2, 2}) / 255, 0, 1e-7));
+  EXPECT_TRUE(at::equal(la.select(2, 0), la.select(2, 2)));
 }
 
 TEST(Image, WriteReadRoundTrips) {
