@@ -188,3 +188,32 @@ TEST(SparseSampling, ZBufferKeepsTheNearest) {
   EXPECT_TRUE(at::equal(r.depth, at::tensor({4.0, 0.0}, at::kDouble).view({1, 2})));
   EXPECT_TRUE(at::equal(r.valid, at::tensor({1, 0}).to(at::kBool).view({1, 2})));
 }
+
+TEST(SparseSampling, PointsBehindTheCameraLandInAPanorama) {
+  // An equirectangular camera sees all around: a point behind the camera (z < 0) lands at
+  // azimuth 180° (x = W · (θ / 2π + 0.5)), elevation from -y.
+  const int64_t w = 360, h = 180;
+  auto camera = make_camera("EQUIRECTANGULAR", w, h, {});
+  auto points = at::tensor({0.0, 0.0, -4.0, 2.0, -2.0, 0.0, 0.0, 0.0, 3.0}, at::kDouble).view({3, 3});
+  auto s = sparse_depth_from_points(points, camera);
+  EXPECT_EQ(s.valid.sum().item<int64_t>(), 3);
+  // (0, 0, -4): θ = π -> x = 360 (the seam, wraps to column 0 or 359), φ = 0 -> row 90.
+  EXPECT_EQ(s.valid[90][0].item<bool>() || s.valid[90][359].item<bool>(), true);
+  // (2, -2, 0): θ = 90° -> column 270; φ = 45° up -> row 45.
+  EXPECT_NEAR(s.depth[45][270].item<double>(), std::sqrt(8.0), 1e-9);
+  // (0, 0, 3): straight ahead -> column 180, row 90.
+  EXPECT_DOUBLE_EQ(s.depth[90][180].item<double>(), 3.0);
+  auto planar = sparse_depth_from_points(points, camera, {}, SparseValue::PlanarDepth);
+  EXPECT_DOUBLE_EQ(planar.depth.masked_select(planar.valid).min().item<double>(), -4.0);
+}
+
+TEST(SparseSampling, LidarAllAroundInAPanorama) {
+  // 1° per pixel; beams at -9.5°, 0.5°, 10.5° hit the pixel rows 99, 89, 79 (centres at
+  // elevation 90° - row - 0.5); 90 firings per revolution each, behind the camera included.
+  const int64_t w = 360, h = 180;
+  auto camera = make_camera("EQUIRECTANGULAR", w, h, {});
+  auto rays = camera.ray_map(at::kDouble);
+  auto s = sample_lidar(at::full({h, w}, 2.0, at::kDouble), rays.valid, rays.rays, LidarPattern{3, -9.5, 10.5, 90});
+  EXPECT_EQ(s.valid.sum().item<int64_t>(), 270);
+  for (int64_t row : {79, 89, 99}) EXPECT_EQ(s.valid[row].sum().item<int64_t>(), 90) << row;
+}
