@@ -123,6 +123,19 @@ TEST(OmniPointModel, OutputShapesAndRanges) {
   }
 }
 
+TEST(OmniPointModel, RunsInDoublePrecision) {
+  OmniPointModel model = tiny_model();
+  activate_conditioning(*model);
+  const Case c;
+  const OmniPointOutput single = model->forward({c.image, c.rays, c.sparse}, kNumTokens);
+  model->to(at::kDouble);
+  const OmniPointOutput twice = model->forward(
+      {c.image.to(at::kDouble), c.rays.to(at::kDouble), c.sparse.to(at::kDouble)}, kNumTokens);
+  EXPECT_EQ(twice.points.scalar_type(), at::kDouble);
+  EXPECT_LT(max_difference(twice.points.to(at::kFloat), single.points), 1e-4);
+  EXPECT_LT(max_difference(twice.mask.to(at::kFloat), single.mask), 1e-5);
+}
+
 TEST(OmniPointModel, ZeroInitialisedFusionStartsUnchanged) {
   OmniPointModel model = tiny_model();
   const Case c;
