@@ -254,8 +254,9 @@ TEST(OmniPointModel, EveryConfigurationSavesAndReloadsBitExactly) {
             const io::SafetensorsFile file = io::parse_safetensors(bytes.data(), bytes.size());
             OmniPointModel reloaded = load_omnipoint_model(file.tensors, file.metadata);
             EXPECT_EQ(reloaded->config().to_json_text(), model->config().to_json_text());
+            const auto reloaded_tensors = state_dict(*reloaded);
             for (const auto& [name, tensor] : state_dict(*model)) {
-              EXPECT_TRUE(at::equal(tensor, state_dict(*reloaded).at(name))) << name;
+              EXPECT_TRUE(at::equal(tensor, reloaded_tensors.at(name))) << name;
             }
             const OmniPointOutput after = reloaded->forward(inputs, kNumTokens);
             EXPECT_TRUE(at::equal(before.points, after.points));
@@ -278,8 +279,9 @@ TEST(OmniPointModel, SavesAsHalfPrecisionFilesAndReloads) {
     io::write_safetensors(path, state_dict(*model), omnipoint_metadata(model->config()), dtype);
     const io::SafetensorsFile file = io::read_safetensors(path);  // converted to float32
     OmniPointModel reloaded = load_omnipoint_model(file.tensors, file.metadata);
+    const auto reloaded_tensors = state_dict(*reloaded);
     for (const auto& [name, tensor] : state_dict(*model)) {
-      EXPECT_TRUE(at::equal(tensor.to(dtype).to(at::kFloat), state_dict(*reloaded).at(name))) << name;
+      EXPECT_TRUE(at::equal(tensor.to(dtype).to(at::kFloat), reloaded_tensors.at(name))) << name;
     }
   }
   std::remove(path.c_str());
@@ -407,9 +409,10 @@ TEST(OmniPointInit, FromDinoV2Backbone) {
   bare["head.weight"] = at::zeros({4});  // a classifier that is not ours
 
   const InitReport report = init_from_dinov2(*model, bare);
+  const auto loaded = state_dict(*model);
   for (const auto& [name, tensor] : bare) {
     if (name == "head.weight") continue;
-    EXPECT_TRUE(at::equal(state_dict(*model).at("encoder.backbone." + name), tensor)) << name;
+    EXPECT_TRUE(at::equal(loaded.at("encoder.backbone." + name), tensor)) << name;
   }
   EXPECT_EQ(report.loaded.size(), bare.size() - 1);
   EXPECT_EQ(report.ignored, std::vector<std::string>{"encoder.backbone.head.weight"});
