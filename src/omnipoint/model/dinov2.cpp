@@ -191,14 +191,14 @@ at::Tensor DinoV2Impl::position_embedding(int64_t rows, int64_t cols) const {
   return at::cat({table.narrow(1, 0, 1), patch_entries}, 1).to(pos_embed.scalar_type());
 }
 
-at::Tensor DinoV2Impl::prepare_tokens(const at::Tensor& image) const {
+at::Tensor DinoV2Impl::prepare_tokens(const at::Tensor& image) {
   const int64_t patch = config_.patch_size;
   if (image.dim() != 4 || image.size(1) != 3 || image.size(2) % patch != 0 || image.size(3) % patch != 0) {
     throw std::invalid_argument("DINOv2 input must be (B,3,H,W) with H and W multiples of " +
                                 std::to_string(patch) + ", got " + c10::str(image.sizes()));
   }
   const int64_t batch = image.size(0), rows = image.size(2) / patch, cols = image.size(3) / patch;
-  const at::Tensor patches = patch_embed->proj(image).flatten(2).transpose(1, 2);  // (B, rows·cols, C)
+  const at::Tensor patches = patch_embed->forward(image).flatten(2).transpose(1, 2);  // (B, rows·cols, C)
   at::Tensor tokens = at::cat({cls_token.expand({batch, 1, config_.embed_dim}), patches}, 1);
   tokens = tokens + position_embedding(rows, cols);
   if (register_tokens.defined()) {

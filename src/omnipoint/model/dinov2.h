@@ -119,7 +119,7 @@ class DinoV2Impl : public torch::nn::Module {
   at::Tensor position_embedding(int64_t rows, int64_t cols) const;
   // The tokens entering block 0: [cls; registers; patches] + position embedding (registers
   // get none). `image` is normalised, (B,3,14·rows,14·cols).
-  at::Tensor prepare_tokens(const at::Tensor& image) const;
+  at::Tensor prepare_tokens(const at::Tensor& image);
   // Runs the blocks on prepared tokens and returns the outputs of the requested blocks
   // (0-based, increasing), each passed through the final LayerNorm. Stops after the last one.
   std::vector<DinoV2Layer> intermediate_layers(at::Tensor tokens,
