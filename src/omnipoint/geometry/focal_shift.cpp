@@ -114,4 +114,19 @@ at::Tensor intrinsics_from_focal(const at::Tensor& focal, double aspect_ratio) {
   return at::stack({fx, zero, half, zero, fy, half, zero, zero, one}, -1).view({-1, 3, 3});
 }
 
+at::Tensor depth_to_points(const at::Tensor& depth, const at::Tensor& intrinsics) {
+  if (depth.dim() != 3 || intrinsics.dim() != 3 || intrinsics.size(0) != depth.size(0) || intrinsics.size(1) != 3 ||
+      intrinsics.size(2) != 3)
+    throw std::invalid_argument("depth_to_points: need depth (B,H,W) and intrinsics (B,3,3), got " +
+                                c10::str(depth.sizes()) + " and " + c10::str(intrinsics.sizes()));
+  const int64_t height = depth.size(1), width = depth.size(2);
+  const auto options = depth.options();
+  const at::Tensor u = (at::arange(width, options) + 0.5) / width;
+  const at::Tensor v = (at::arange(height, options) + 0.5) / height;
+  const auto entry = [&](int64_t row, int64_t col) { return intrinsics.select(1, row).select(1, col).view({-1, 1, 1}); };
+  const at::Tensor x = (u.view({1, 1, width}) - entry(0, 2)) / entry(0, 0) * depth;
+  const at::Tensor y = (v.view({1, height, 1}) - entry(1, 2)) / entry(1, 1) * depth;
+  return at::stack({x, y, depth}, -1);
+}
+
 }  // namespace omnipoint::geometry

@@ -38,4 +38,9 @@ FocalShift recover_focal_shift(const at::Tensor& points, const at::Tensor& mask,
 // — of a focal relative to half the diagonal of an image of aspect W/H.
 at::Tensor intrinsics_from_focal(const at::Tensor& focal, double aspect_ratio);
 
+// Points (B,H,W,3) of a depth map (B,H,W) seen through normalised pinhole intrinsics (B,3,3,
+// zero skew),
+// at the pixel centres u = (j+0.5)/W, v = (i+0.5)/H: depth · K⁻¹ [u, v, 1]ᵀ.
+at::Tensor depth_to_points(const at::Tensor& depth, const at::Tensor& intrinsics);
+
 }  // namespace omnipoint::geometry

@@ -179,8 +179,10 @@ at::Tensor DinoV2Impl::position_embedding(int64_t rows, int64_t cols) const {
   if (config_.interpolate_offset != 0) {
     // DINOv2 passes scale factors, and the kernel samples at (i + 0.5) / s - 0.5 with them;
     // resizing to the size instead samples elsewhere (off by up to 2 on the fixture).
+    // (recompute_scale_factor false = PyTorch's default behaviour, stated to silence its warning.)
     options.scale_factor(std::vector<double>{(static_cast<double>(rows) + config_.interpolate_offset) / grid,
-                                             (static_cast<double>(cols) + config_.interpolate_offset) / grid});
+                                             (static_cast<double>(cols) + config_.interpolate_offset) / grid})
+        .recompute_scale_factor(false);
   } else {
     options.size(std::vector<int64_t>{rows, cols});
   }

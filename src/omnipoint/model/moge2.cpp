@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "omnipoint/geometry/view_plane_uv.h"
+#include "omnipoint/model/state_dict.h"
 
 namespace omnipoint::model {
 
@@ -251,6 +252,20 @@ MoGe2Output MoGe2ModelImpl::forward(const at::Tensor& image, int64_t num_tokens)
   }
   if (raw.log_scale.defined()) output.metric_scale = at::exp(raw.log_scale);
   return output;
+}
+
+MoGe2Model load_moge2(const std::map<std::string, at::Tensor>& tensors,
+                      const std::map<std::string, std::string>& metadata) {
+  const auto format = metadata.find("format");
+  if (format != metadata.end() && format->second != "moge2")
+    throw std::invalid_argument("weights are of format '" + format->second + "', expected 'moge2'");
+  const auto config = metadata.find("config");
+  if (config == metadata.end())
+    throw std::invalid_argument("weights carry no model config (metadata entry 'config')");
+  MoGe2Model model(MoGe2Config::from_json_text(config->second));
+  load_state_dict(*model, tensors, LoadMode::kStrict);
+  model->eval();
+  return model;
 }
 
 }  // namespace omnipoint::model

@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -137,5 +138,12 @@ class MoGe2ModelImpl : public torch::nn::Module {
   MoGe2Config config_;
 };
 TORCH_MODULE(MoGe2Model);
+
+// A MoGe-2 model from the content of a weights file: the config is the metadata entry
+// "config" (a "format" entry, if present, must be "moge2"); the tensors load strictly.
+// std::invalid_argument for a bad or missing config, std::runtime_error (listing the
+// names) for weights that do not fit it.
+MoGe2Model load_moge2(const std::map<std::string, at::Tensor>& tensors,
+                      const std::map<std::string, std::string>& metadata);
 
 }  // namespace omnipoint::model
