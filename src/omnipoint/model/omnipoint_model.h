@@ -58,10 +58,15 @@ class OmniPointModelImpl : public torch::nn::Module {
  public:
   explicit OmniPointModelImpl(const OmniPointConfig& config);
 
+  // num_tokens: the target number of ViT patch tokens (MoGe-2's token_grid); the image may
+  // have any size, the ray map and sparse depth any size too (they are resampled to the ViT
+  // input grid), with the image's batch size.
   OmniPointOutput forward(const OmniPointInputs& inputs, int64_t num_tokens);
 
-  // The additive offset of the ViT input tokens (B, 1 + rows·cols, C) for these conditions
-  // (undefined when the model has no conditioning), and each item's condition state.
+  // The additive offset of the ViT input tokens (B, prefix + rows·cols, C; prefix = class and
+  // register tokens) for these conditions: the state embeddings on every token, the branch
+  // encodings on the patch tokens. Undefined when there is nothing to add (no state embeddings,
+  // no condition tensors), so the tokens are then exactly MoGe-2's. Also each item's state.
   struct TokenConditioning {
     at::Tensor offset;
     at::Tensor intrinsics_present;
