@@ -23,6 +23,9 @@ TEST(Conditioning, PresenceFollowsTheValidValuesOfEachItem) {
   rays[1][2][3][4] = 1.0;
   rays[2].select(0, 2).fill_(1.0);
   EXPECT_TRUE(at::equal(rays_present(rays), flags({0, 1, 1})));
+  rays[0][1][2][2] = NAN;  // a non-finite ray carries nothing
+  EXPECT_TRUE(at::equal(rays_present(rays), flags({0, 1, 1})));
+  EXPECT_EQ(valid_rays(rays)[0].abs().sum().item<float>(), 0.0f);
 
   at::Tensor depth = at::zeros({4, 4, 5});
   depth[1][0][0] = 2.5;

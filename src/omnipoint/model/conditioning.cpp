@@ -24,7 +24,12 @@ at::Tensor rays_present(const at::Tensor& rays) {
   if (!rays.defined() || rays.dim() != 4 || rays.size(1) != 3 || !rays.is_floating_point()) {
     throw std::invalid_argument("ray map: expected a floating-point (B,3,H,W) tensor");
   }
-  return (rays != 0).flatten(1).any(1);
+  return valid_rays(rays).ne(0).flatten(1).any(1);
+}
+
+at::Tensor valid_rays(const at::Tensor& rays) {
+  const at::Tensor finite = at::isfinite(rays).all(1, /*keepdim=*/true);
+  return at::where(finite, rays, at::zeros_like(rays));
 }
 
 at::Tensor sparse_depth_valid(const at::Tensor& sparse_depth) {

@@ -10,8 +10,8 @@
 // - for metric sparse depth, a post-alignment of the predicted metric scale to it.
 //
 // Conventions. A condition is given per batch item, and an item's condition is present when it
-// holds any valid value: a ray map (B,3,H,W) is valid where the ray is non-zero (cameras give
-// zero rays outside their domain), a sparse depth map (B,H,W) holds radial distances along the
+// holds any valid value: a ray map (B,3,H,W) is valid where the ray is finite and non-zero
+// (cameras give zero rays outside their domain; non-finite rays are treated as zero), a sparse depth map (B,H,W) holds radial distances along the
 // pixel's ray (DESIGN.md: distance, not planar z) and is valid where finite and > 0. Absent
 // items may therefore be stacked as zeros into a mixed batch. Every fusion layer (the encoders'
 // last conv, the state embeddings) starts at zero, so a model initialised from MoGe-2 starts out
@@ -39,6 +39,7 @@ struct ConditioningConfig {
 
 // Per-item presence (B,) bool of each condition, following the conventions above.
 at::Tensor rays_present(const at::Tensor& rays);                // rays (B,3,H,W)
+at::Tensor valid_rays(const at::Tensor& rays);                  // non-finite rays zeroed
 at::Tensor sparse_depth_valid(const at::Tensor& sparse_depth);  // (B,H,W) bool
 at::Tensor sparse_depth_present(const at::Tensor& sparse_depth);
 

@@ -91,7 +91,7 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
     patch_offset = patch_offset.defined() ? patch_offset + masked : masked;
   };
   if (inputs.rays.defined()) {
-    const at::Tensor rays = F::interpolate(inputs.rays.to(image.options()),
+    const at::Tensor rays = F::interpolate(valid_rays(inputs.rays.to(image.options())),
                                            F::InterpolateFuncOptions()
                                                .size(std::vector<int64_t>{vit_height, vit_width})
                                                .mode(torch::kBilinear)
