@@ -4,13 +4,15 @@
 // Configurations: MoGe-2's published ViT-L decoder (neck/head dims [C,256,128,64,32],
 // neck res blocks [0,2,2,2,0], heads [0,1,1,1,0], points + mask + normal heads, scale MLP
 // [C,C,C,1], intermediate layers [5,11,17,23]); ViT-B and ViT-S use the same decoder with
-// C = their width and layers [2,5,8,11]. Image 480×640 (4:3), batch 1, 2 intra-op threads.
+// C = their width and layers [2,5,8,11]. Image 480×640 (4:3), batch 1, 2 intra-op threads;
+// one untimed warm-up run, then one timed run (a ViT-L forward takes seconds here).
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 #include <benchmark/benchmark.h>
 #include <c10/core/InferenceMode.h>
 #include <nlohmann/json.hpp>
 
+#include <fstream>
 #include <string>
 
 #include "omnipoint/model/moge2.h"
@@ -48,6 +50,17 @@ const char* kBackbones[] = {"dinov2_vits14", "dinov2_vitb14", "dinov2_vitl14"};
 
 at::Tensor test_image() { return at::rand({1, 3, 480, 640}); }
 
+// Peak resident memory of one benchmark: Linux's high-water mark (VmHWM), reset at its start
+// by writing 5 to /proc/self/clear_refs.
+void reset_peak_memory() { std::ofstream("/proc/self/clear_refs") << "5"; }
+double peak_memory_mb() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  }
+  return 0;
+}
+
 // GEMM throughput of the machine: a ViT-L MLP-sized product (2400×1024 · 1024×4096).
 void BM_Gemm(benchmark::State& state) {
   const at::Tensor a = at::randn({2400, 1024}), b = at::randn({1024, 4096});
@@ -77,16 +90,18 @@ void BM_VitBlocks(benchmark::State& state) {
 }
 
 void BM_Forward(benchmark::State& state) {
+  reset_peak_memory();
   c10::InferenceMode inference;
   MoGe2Model model(moge2_config(kBackbones[state.range(0)]));
   model->eval();
   const at::Tensor image = test_image();
   model->forward(image, state.range(1));  // warm-up
   for (auto _ : state) benchmark::DoNotOptimize(model->forward(image, state.range(1)));
+  state.counters["peak_MB"] = peak_memory_mb();
 }
 
 void variants(benchmark::internal::Benchmark* bench) {
-  bench->ArgNames({"vit", "tokens"})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
+  bench->ArgNames({"vit", "tokens"})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
   for (int64_t vit = 0; vit < 3; ++vit)
     for (int64_t tokens : {1200, 2400}) bench->Args({vit, tokens});
 }
