@@ -189,6 +189,9 @@ TEST(MoGe2Config, RejectsUnsupportedSettingsClearly) {
   config["remap_output"] = "cube";
   EXPECT_THROW(model::MoGe2Config::from_json(config), std::invalid_argument);
   EXPECT_THROW(model::MoGe2Config::from_json_text("{not json"), std::invalid_argument);
+  // The default token count is MoGe's infer() default: the top of num_tokens_range.
+  config = read_meta()["model_config"];
+  EXPECT_EQ(model::MoGe2Config::from_json(config).default_num_tokens(), config["num_tokens_range"][1].get<int64_t>());
   // Hub names resolve to the published ViT shapes.
   EXPECT_EQ(model::DinoV2Config::hub("dinov2_vitl14").embed_dim, 1024);
   EXPECT_EQ(model::DinoV2Config::hub("dinov2_vitg14").depth, 40);
