@@ -208,6 +208,24 @@ TEST(OmniPointModel, StateEmbeddingFollowsTheInputs) {
   EXPECT_TRUE(at::equal(out.sparse_depth_present, conditioning.sparse_depth_present));
 }
 
+TEST(OmniPointModel, GradientsReachTheConditioningThatWasUsed) {
+  OmniPointModel model = tiny_model();
+  activate_conditioning(*model);
+  const Case c;
+  const OmniPointOutput out = model->forward({c.image, c.rays}, kNumTokens);  // +K, no depth
+  (out.log_distance.mean() + out.ray_raw.mean() + out.mask_logits.mean() + out.log_metric_scale.mean()).backward();
+  EXPECT_GT(model->intrinsics_encoder->fuse->weight.grad().abs().sum().item<double>(), 0.0);
+  EXPECT_GT(model->intrinsics_encoder->patchify->weight.grad().abs().sum().item<double>(), 0.0);
+  const at::Tensor e_intrinsic = model->intrinsics_state->weight.grad();
+  const at::Tensor e_depth = model->depth_state->weight.grad();
+  EXPECT_EQ(e_intrinsic[0].abs().sum().item<double>(), 0.0);  // "absent" unused
+  EXPECT_GT(e_intrinsic[1].abs().sum().item<double>(), 0.0);
+  EXPECT_GT(e_depth[0].abs().sum().item<double>(), 0.0);
+  EXPECT_EQ(e_depth[1].abs().sum().item<double>(), 0.0);  // "present" unused
+  EXPECT_FALSE(model->sparse_depth_encoder->fuse->weight.grad().defined());
+  EXPECT_GT(model->encoder->backbone->cls_token.grad().abs().sum().item<double>(), 0.0);
+}
+
 TEST(OmniPointModel, MixedBatchEqualsEachItemAlone) {
   OmniPointModel model = tiny_model();
   activate_conditioning(*model);

@@ -116,8 +116,8 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
   if (!patch_offset.defined() && !state_offset.defined()) return result;  // exactly MoGe-2's tokens
   const int64_t prefix = encoder->backbone->num_prefix_tokens();
   const int64_t dim = config_.encoder.backbone_config.embed_dim;
-  at::Tensor offset = at::zeros({batch, prefix + grid.rows * grid.cols, dim}, image.options());
-  if (patch_offset.defined()) offset.narrow(1, prefix, grid.rows * grid.cols).copy_(patch_offset);
+  if (!patch_offset.defined()) patch_offset = at::zeros({batch, grid.rows * grid.cols, dim}, image.options());
+  at::Tensor offset = at::cat({at::zeros({batch, prefix, dim}, image.options()), patch_offset}, 1);
   result.offset = state_offset.defined() ? offset + state_offset : offset;
   return result;
 }
