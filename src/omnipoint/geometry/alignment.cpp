@@ -1,0 +1,458 @@
+// Robust exact L1 alignment. Internally every problem is brought to the form
+// "C axes of n samples that share one scale": X, Y, W of shape (B, C, n), masked samples
+// zeroed (x = y = w = 0, which makes them inert in every formula below).
+#include "omnipoint/geometry/alignment.h"
+
+#include <ATen/ATen.h>
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace omnipoint::geometry {
+namespace {
+
+constexpr double kRatioEps = 1e-7;  // MoGe's clamp of |x| in the ratio y/x
+constexpr int kMaxPivotIterations = 64;
+constexpr int64_t kMaxElementsPerChunk = int64_t{1} << 22;
+
+void check_same_shape(const at::Tensor& a, const at::Tensor& b, const char* name_a,
+                      const char* name_b) {
+  if (!a.defined() || !b.defined() || a.sizes() != b.sizes()) {
+    throw std::invalid_argument(std::string("alignment: ") + name_a + " and " + name_b +
+                                " must be defined tensors of the same shape");
+  }
+}
+
+void check_inputs(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                  const at::Tensor& mask) {
+  check_same_shape(x, y, "source", "target");
+  if (!at::isFloatingType(x.scalar_type()) || x.scalar_type() != y.scalar_type()) {
+    throw std::invalid_argument("alignment: source and target must share a floating dtype");
+  }
+  if (x.dim() < 1) throw std::invalid_argument("alignment: samples need at least one dimension");
+  check_same_shape(x, weight, "samples", "weight");
+  if (mask.defined()) {
+    check_same_shape(x, mask, "samples", "mask");
+    if (mask.scalar_type() != at::kBool) throw std::invalid_argument("alignment: mask must be bool");
+  }
+}
+
+// Zeroes masked samples so that they carry no weight and no NaN/inf.
+std::tuple<at::Tensor, at::Tensor, at::Tensor> sanitize(const at::Tensor& x, const at::Tensor& y,
+                                                        const at::Tensor& weight,
+                                                        const at::Tensor& mask) {
+  const at::Tensor w = weight.to(x.scalar_type());
+  if (!mask.defined()) return {x, y, w};
+  const at::Tensor zero = at::zeros({}, x.options());
+  return {at::where(mask, x, zero), at::where(mask, y, zero), at::where(mask, w, zero)};
+}
+
+// Position, along the last dim of the sorted weights, of the first element whose
+// cumulative weight reaches half of the total (MoGe's tie rule).
+at::Tensor median_position(const at::Tensor& sorted_weight) {
+  const int64_t n = sorted_weight.size(-1);
+  const at::Tensor cumulative = sorted_weight.cumsum(-1);
+  const at::Tensor total = cumulative.narrow(-1, n - 1, 1);
+  return (2 * cumulative - total < 0).sum(-1, /*keepdim=*/true).clamp_max(n - 1);
+}
+
+at::Tensor nan_like(const at::Tensor& t) { return at::full_like(t, std::numeric_limits<double>::quiet_NaN()); }
+
+// Weighted-median scale on (B, n) sanitized samples.
+ScaleFit scale_fit_rows(const at::Tensor& x, const at::Tensor& y, const at::Tensor& w) {
+  const at::Tensor sign = x.sign();
+  const at::Tensor xs = x * sign;
+  const at::Tensor ys = y * sign;
+  at::Tensor ratio, order;
+  std::tie(ratio, order) = (ys / xs.clamp_min(kRatioEps)).sort(-1);
+  const at::Tensor sorted_wx = (w * xs).gather(-1, order);
+  const at::Tensor pos = median_position(sorted_wx);
+  at::Tensor scale = ratio.gather(-1, pos).squeeze(-1);
+  at::Tensor index = order.gather(-1, pos).squeeze(-1);
+  at::Tensor loss = (w * (scale.unsqueeze(-1) * x - y).abs()).sum(-1);
+  const at::Tensor empty = sorted_wx.sum(-1) <= 0;
+  scale = at::where(empty, nan_like(scale), scale);
+  loss = at::where(empty, nan_like(loss), loss);
+  index = at::where(empty, at::full_like(index, -1), index);
+  return {scale, loss, index};
+}
+
+ScaleFit reshape_fit(ScaleFit fit, at::IntArrayRef batch_shape) {
+  return {fit.scale.reshape(batch_shape), fit.loss.reshape(batch_shape),
+          fit.index.reshape(batch_shape)};
+}
+
+// Truncated scale on (B, n) sanitized samples. Every term is
+//   min(T, c|a − A|),  c = w|x|, A = y/x,
+// zero at A, linear up to T on (B, C) = (A − T/c, A + T/c) and flat outside. Between two
+// consecutive A's the objective is a sum of concave pieces, so its minimum is one of the A's.
+// With the A, B and C sorted and prefix sums of (1, c, c·A) in each order, the objective at
+// every A is assembled in O(n log n): f(a) = Σ_const + T·#active − Σ_{B<a≤A}(T − c(A − a))
+// − Σ_{A<a<C}(T − c(a − A)).
+ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in,
+                                  const at::Tensor& w_in, double trunc) {
+  const at::Tensor x = x_in.to(at::kDouble), y = y_in.to(at::kDouble), w = w_in.to(at::kDouble);
+  const double inf = std::numeric_limits<double>::infinity();
+  const at::Tensor sign = x.sign();
+  const at::Tensor xs = x * sign, ys = y * sign;
+  const at::Tensor c = w * xs;
+  const at::Tensor active = c > 0;
+  const at::Tensor inf_t = at::full({}, inf, x.options());
+  const at::Tensor c_safe = at::where(active, c, at::ones_like(c));
+  const at::Tensor A = at::where(active, ys / xs.clamp_min(std::numeric_limits<double>::min()), inf_t);
+  // Keep B < A < C strictly even where T/c vanishes against A in rounding.
+  const at::Tensor B = at::minimum(A - trunc / c_safe, at::nextafter(A, -inf_t));
+  const at::Tensor C = at::maximum(A + trunc / c_safe, at::nextafter(A, inf_t));
+  const at::Tensor B_s = at::where(active, B, inf_t), C_s = at::where(active, C, inf_t);
+  const at::Tensor constant_terms =
+      at::where(active, at::zeros_like(c), at::minimum(w * y.abs(), at::full({}, trunc, x.options())))
+          .sum(-1, true);
+
+  const at::Tensor one = active.to(at::kDouble);
+  const at::Tensor cA = at::where(active, c * A, at::zeros_like(c));
+  // Prefix sums (with a leading 0) of (1, c, cA) in the order of `keys`.
+  auto prefix = [&](const at::Tensor& keys) {
+    at::Tensor sorted, order;
+    std::tie(sorted, order) = keys.sort(-1);
+    auto cum = [&](const at::Tensor& v) {
+      return at::constant_pad_nd(v.gather(-1, order).cumsum(-1), {1, 0}, 0.0);
+    };
+    return std::make_tuple(sorted, cum(one), cum(at::where(active, c, at::zeros_like(c))), cum(cA));
+  };
+  at::Tensor sA, nA1, cA1, aA1, sB, nB1, cB1, aB1, sC, nC1, cC1, aC1;
+  std::tie(sA, nA1, cA1, aA1) = prefix(A);
+  std::tie(sB, nB1, cB1, aB1) = prefix(B_s);
+  std::tie(sC, nC1, cC1, aC1) = prefix(C_s);
+  const at::Tensor a = at::where(active, A, at::zeros_like(A));  // queries
+  const at::Tensor iB = at::searchsorted(sB, a, false, false);  // #{B < a}
+  const at::Tensor iA = at::searchsorted(sA, a, false, false);  // #{A < a}
+  const at::Tensor iC = at::searchsorted(sC, a, false, true);   // #{C <= a}
+  auto at_ = [](const at::Tensor& v, const at::Tensor& i) { return v.gather(-1, i); };
+  const at::Tensor left_n = at_(nB1, iB) - at_(nA1, iA), left_c = at_(cB1, iB) - at_(cA1, iA),
+                   left_a = at_(aB1, iB) - at_(aA1, iA);
+  const at::Tensor right_n = at_(nA1, iA) - at_(nC1, iC), right_c = at_(cA1, iA) - at_(cC1, iC),
+                   right_a = at_(aA1, iA) - at_(aC1, iC);
+  at::Tensor objective = constant_terms + trunc * one.sum(-1, true) -
+                         (trunc * left_n - (left_a - a * left_c)) -
+                         (trunc * right_n - (a * right_c - right_a));
+  objective = at::where(active, objective, inf_t);
+  at::Tensor index = objective.argmin(-1, /*keepdim=*/true);
+
+  const auto dtype = x_in.scalar_type();
+  const at::Tensor xk = x_in.gather(-1, index), yk = y_in.gather(-1, index);
+  const at::Tensor sk = xk.sign();
+  at::Tensor scale = ((yk * sk) / (xk * sk).clamp_min(kRatioEps)).squeeze(-1);
+  at::Tensor loss = (w_in * (scale.unsqueeze(-1) * x_in - y_in).abs())
+                        .clamp_max(trunc)
+                        .sum(-1)
+                        .to(dtype);
+  index = index.squeeze(-1);
+  const at::Tensor empty = ~active.any(-1);
+  scale = at::where(empty, nan_like(scale), scale);
+  loss = at::where(empty, nan_like(loss), loss);
+  index = at::where(empty, at::full_like(index, -1), index);
+  return {scale, loss, index};
+}
+
+// One-sided weighted-median pivots of the residuals R = Y − s·X at s+ (right) or s− (left).
+// Just right of s the residuals order by (R ascending, X descending), just left by
+// (R ascending, X ascending), so a lexicographic sort gives the pivot k per axis that stays
+// a weighted median on a one-sided neighbourhood of s. Also returns the one-sided
+// derivative of F(s) = Σ_c min_t Σ_i w|Y − sX − t| there: Σ_i w_i·σ_i·(X_k − X_i), with
+// σ_i = +1 after the pivot in that order and −1 before it.
+std::pair<at::Tensor, at::Tensor> one_sided_pivots(const at::Tensor& R, const at::Tensor& X,
+                                                   const at::Tensor& W, bool right) {
+  const at::Tensor by_x = std::get<1>(at::sort(right ? -X : X, /*stable=*/true, -1, false));
+  const at::Tensor by_r = std::get<1>(at::sort(R.gather(-1, by_x), /*stable=*/true, -1, false));
+  const at::Tensor order = by_x.gather(-1, by_r);
+  const at::Tensor ws = W.gather(-1, order);
+  const at::Tensor wxs = ws * X.gather(-1, order);
+  const at::Tensor pos = median_position(ws);
+  const at::Tensor pivot = order.gather(-1, pos);  // (B, C, 1)
+  const at::Tensor cw = ws.cumsum(-1), cwx = wxs.cumsum(-1);
+  const at::Tensor w_upto = cw.gather(-1, pos), wx_upto = cwx.gather(-1, pos);
+  const at::Tensor w_before = w_upto - ws.gather(-1, pos), wx_before = wx_upto - wxs.gather(-1, pos);
+  const at::Tensor w_after = cw.narrow(-1, cw.size(-1) - 1, 1) - w_upto;
+  const at::Tensor wx_after = cwx.narrow(-1, cwx.size(-1) - 1, 1) - wx_upto;
+  const at::Tensor xk = X.gather(-1, pivot);
+  const at::Tensor derivative =
+      (xk * (w_after - w_before) - (wx_after - wx_before)).sum({-2, -1});
+  return {pivot, derivative};
+}
+
+at::Tensor affine_loss(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
+                       const at::Tensor& scale, const at::Tensor& shift) {
+  return (W * (scale.view({-1, 1, 1}) * X + shift.unsqueeze(-1) - Y).abs()).sum({-2, -1});
+}
+
+// Exact min_{s, t_c} Σ_{c,i} w_ci |s·X_ci + t_c − Y_ci| on (B, C, n) sanitized samples.
+//
+// F(s) = Σ_c min_t (...) is convex and piecewise linear in s. Let k_c be the one-sided
+// median pivots at s (see one_sided_pivots). M(σ) = Σ_c Σ_i w|(Y − Y_k) − σ(X − X_k)| is
+// ≥ F(σ) everywhere (t restricted to pass through the pivots) and equals F on that side
+// of s. If F's derivative on that side is negative, minimising M (one weighted-median
+// scale fit) gives σ on that side with F(σ) ≤ M(σ) < M(s) = F(s): a strict descent that
+// lands on a breakpoint of F. Breakpoints are finitely many, so the walk stops, and it
+// stops only where F'(s−) ≤ 0 ≤ F'(s+), i.e. at the global minimum of the convex F.
+// The shift is then t_c = Y_kc − s·X_kc, a weighted median of the residuals.
+AffineFit pivot_descent(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W) {
+  const int64_t batch = X.size(0);
+  at::Tensor s = scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1)).scale;
+  s = at::where(at::isfinite(s), s, at::zeros_like(s));
+  at::Tensor active = at::ones({batch}, X.options().dtype(at::kBool));
+  for (int iteration = 0; iteration < kMaxPivotIterations; ++iteration) {
+    const at::Tensor R = Y - s.view({-1, 1, 1}) * X;
+    at::Tensor right_pivot, right_slope, left_pivot, left_slope;
+    std::tie(right_pivot, right_slope) = one_sided_pivots(R, X, W, /*right=*/true);
+    std::tie(left_pivot, left_slope) = one_sided_pivots(R, X, W, /*right=*/false);
+    const at::Tensor go_right = right_slope < 0;
+    const at::Tensor go_left = at::logical_and(at::logical_not(go_right), left_slope > 0);
+    const at::Tensor moving = at::logical_and(active, at::logical_or(go_right, go_left));
+    if (!moving.any().item<bool>()) break;
+    const at::Tensor pivot = at::where(go_right.view({-1, 1, 1}), right_pivot, left_pivot);
+    const at::Tensor anchored_x = X - X.gather(-1, pivot);
+    const at::Tensor anchored_y = Y - Y.gather(-1, pivot);
+    const at::Tensor next = scale_fit_rows(anchored_x.flatten(1), anchored_y.flatten(1), W.flatten(1)).scale;
+    // In exact arithmetic a move always changes s; rounding can stall it at the optimum.
+    active = at::logical_and(moving, at::logical_and(at::isfinite(next), next != s));
+    s = at::where(active, next, s);
+    if (!active.any().item<bool>()) break;
+  }
+  const at::Tensor pivot = one_sided_pivots(Y - s.view({-1, 1, 1}) * X, X, W, true).first;
+  at::Tensor shift = (Y.gather(-1, pivot) - s.view({-1, 1, 1}) * X.gather(-1, pivot)).squeeze(-1);
+  const at::Tensor empty = W.sum({-2, -1}) <= 0;
+  s = at::where(empty, nan_like(s), s);
+  shift = at::where(empty.unsqueeze(-1), nan_like(shift), shift);
+  return {s, shift, affine_loss(X, Y, W, s, shift)};
+}
+
+// MoGe's anchored search on (B, C, n): every candidate sample j (all C axes pass through
+// it) gets a pooled scale fit through it, the lowest loss wins (the first on ties).
+// `candidates` (B, n) bool limits the anchors tried; samples without weight are never tried.
+AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
+                          const at::Tensor& candidates) {
+  const int64_t batch = X.size(0), axes = X.size(1), n = X.size(2);
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<at::Tensor> scales, shifts;
+  const int64_t chunk = std::max<int64_t>(1, kMaxElementsPerChunk / std::max<int64_t>(1, axes * n));
+  for (int64_t b = 0; b < batch; ++b) {
+    const at::Tensor xb = X[b], yb = Y[b], wb = W[b];  // (C, n)
+    const at::Tensor anchors = at::logical_and(candidates[b], (wb > 0).any(0)).nonzero().flatten();
+    const at::Tensor w_row = wb.flatten().unsqueeze(0);
+    at::Tensor best_loss = at::full({}, inf, X.options());
+    at::Tensor best_scale = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
+    at::Tensor best_anchor = at::zeros({}, X.options().dtype(at::kLong));
+    for (int64_t start = 0; start < anchors.numel(); start += chunk) {
+      const at::Tensor ids = anchors.narrow(0, start, std::min(chunk, anchors.numel() - start));
+      const at::Tensor x_rel = (xb.unsqueeze(0) - xb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
+      const at::Tensor y_rel = (yb.unsqueeze(0) - yb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
+      const ScaleFit fit = scale_fit_rows(x_rel, y_rel, w_row.expand_as(x_rel));
+      // An anchor sharing x with every sample leaves the scale free: take 0.
+      const at::Tensor free = at::isnan(fit.scale);
+      const at::Tensor scale = at::where(free, at::zeros_like(fit.scale), fit.scale);
+      const at::Tensor loss = at::where(free, (w_row * y_rel.abs()).sum(-1), fit.loss);
+      const at::Tensor i = loss.argmin();
+      const at::Tensor better = loss[i] < best_loss;
+      best_loss = at::where(better, loss[i], best_loss);
+      best_scale = at::where(better, scale[i], best_scale);
+      best_anchor = at::where(better, ids[i], best_anchor);
+    }
+    scales.push_back(best_scale);
+    shifts.push_back(yb.index_select(1, best_anchor.view({1})).squeeze(1) -
+                     best_scale * xb.index_select(1, best_anchor.view({1})).squeeze(1));
+  }
+  const at::Tensor scale = at::stack(scales), shift = at::stack(shifts);
+  return {scale, shift, affine_loss(X, Y, W, scale, shift)};
+}
+
+// For every anchor j at once, the value and a subgradient of its anchored objective
+//   Φ_j(s) = Σ_c Σ_i w_ci |R_ci − R_cj|,  R = Y − s·X,
+// at each of the m slopes s (B, m): one sort per slope and axis plus prefix sums.
+// Returns (value, slope), both (B, m, n).
+std::pair<at::Tensor, at::Tensor> anchored_objectives(const at::Tensor& X, const at::Tensor& Y,
+                                                      const at::Tensor& W, const at::Tensor& s) {
+  const at::Tensor Xm = X.unsqueeze(1), Wm = W.unsqueeze(1).expand({-1, s.size(1), -1, -1});
+  const at::Tensor R = Y.unsqueeze(1) - s.view({s.size(0), s.size(1), 1, 1}) * Xm;  // (B, m, C, n)
+  at::Tensor sorted, order;
+  std::tie(sorted, order) = R.sort(-1);
+  auto prefix = [&](const at::Tensor& v) {
+    return at::constant_pad_nd(v.gather(-1, order).cumsum(-1), {1, 0}, 0.0);
+  };
+  const at::Tensor pw = prefix(Wm), pwr = prefix(Wm * R), pwx = prefix(Wm * Xm.expand_as(R));
+  const at::Tensor below = at::searchsorted(sorted, R, false, false);  // #{R_i < R_j}
+  const at::Tensor upto = at::searchsorted(sorted, R, false, true);    // #{R_i <= R_j}
+  auto at_ = [](const at::Tensor& v, const at::Tensor& i) { return v.gather(-1, i); };
+  auto total = [](const at::Tensor& v) { return v.narrow(-1, v.size(-1) - 1, 1); };
+  const at::Tensor w_lt = at_(pw, below), w_gt = total(pw) - at_(pw, upto);
+  const at::Tensor wr_lt = at_(pwr, below), wr_gt = total(pwr) - at_(pwr, upto);
+  const at::Tensor wx_lt = at_(pwx, below), wx_gt = total(pwx) - at_(pwx, upto);
+  const at::Tensor value = (R * w_lt - wr_lt + wr_gt - R * w_gt).sum(2);
+  const at::Tensor slope = (Xm * (w_gt - w_lt) - (wx_gt - wx_lt)).sum(2);
+  return {value, slope};
+}
+
+// Exact anchored search with pruning. Each Φ_j is convex in s, so the tangents at slopes
+// s_1 < ... < s_m where its subgradient changes sign bound min Φ_j from below; evaluations
+// bound the overall optimum from above. Only anchors whose lower bound does not exceed the
+// best evaluation can win, and only they get the exact (sorting) fit.
+AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W) {
+  const at::Tensor Xd = X.to(at::kDouble), Yd = Y.to(at::kDouble), Wd = W.to(at::kDouble);
+  // Slopes spread around the unrestricted optimum, which the anchored ones cluster about.
+  at::Tensor centre = pivot_descent(Xd, Yd, Wd).scale;
+  centre = at::where(at::isfinite(centre), centre, at::ones_like(centre));
+  const at::Tensor base = at::where(centre.abs() > 0, centre.abs(), at::ones_like(centre));
+  const at::Tensor offsets = at::tensor({-10.0, -3.0, -1.0, -0.3, -0.1, -0.03, -1e-2, -3e-3, -1e-3, -1e-4, -1e-5, 0.0,
+                                         1e-5, 1e-4, 1e-3, 3e-3, 1e-2, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0},
+                                        Xd.options());
+  const at::Tensor s = centre.unsqueeze(1) + base.unsqueeze(1) * offsets.unsqueeze(0);  // (B, m)
+  at::Tensor value, slope;
+  std::tie(value, slope) = anchored_objectives(Xd, Yd, Wd, s);
+  const int64_t m = s.size(1);
+  const double inf = std::numeric_limits<double>::infinity();
+  at::Tensor lower = at::full_like(value.select(1, 0), -inf);
+  for (int64_t l = 0; l + 1 < m; ++l) {
+    const at::Tensor f0 = value.select(1, l), f1 = value.select(1, l + 1);
+    const at::Tensor d0 = slope.select(1, l), d1 = slope.select(1, l + 1);
+    const at::Tensor s0 = s.select(1, l).unsqueeze(-1), s1 = s.select(1, l + 1).unsqueeze(-1);
+    const at::Tensor bracket = at::logical_and(d0 <= 0, d1 >= 0);
+    const at::Tensor denominator = d1 - d0;
+    const at::Tensor crossing = (f0 - f1 - d0 * s0 + d1 * s1) / at::where(denominator > 0, denominator, at::ones_like(denominator));
+    const at::Tensor bound = at::where(denominator > 0, f0 + d0 * (crossing - s0), at::minimum(f0, f1));
+    lower = at::where(bracket, at::maximum(lower, bound), lower);
+  }
+  const at::Tensor upper = value.amin({1, 2}, /*keepdim=*/false).unsqueeze(-1);  // (B, 1)
+  // Keep anchors within rounding of the bound, so the test errs on the side of solving.
+  const at::Tensor candidates = lower <= upper + 1e-9 * upper.abs();
+  return anchored_search(X, Y, W, candidates);
+}
+
+// Flattens (..., n) samples into (B, 1, n) rows.
+std::tuple<at::Tensor, at::Tensor, at::Tensor> depth_rows(const at::Tensor& x, const at::Tensor& y,
+                                                          const at::Tensor& weight, const at::Tensor& mask) {
+  check_inputs(x, y, weight, mask);
+  at::Tensor xs, ys, ws;
+  std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
+  const int64_t n = x.size(-1);
+  return {xs.reshape({-1, 1, n}), ys.reshape({-1, 1, n}), ws.reshape({-1, 1, n})};
+}
+
+// Points (..., n, 3) with weight (..., n) into (B, 3, n) axis rows.
+std::tuple<at::Tensor, at::Tensor, at::Tensor> points_rows(const at::Tensor& source, const at::Tensor& target,
+                                                           const at::Tensor& weight, const at::Tensor& mask) {
+  check_same_shape(source, target, "source points", "target points");
+  if (source.dim() < 2 || source.size(-1) != 3) {
+    throw std::invalid_argument("alignment: points must have shape (..., n, 3)");
+  }
+  const at::Tensor w3 = weight.unsqueeze(-1).expand_as(source);
+  const at::Tensor m3 = mask.defined() ? mask.unsqueeze(-1).expand_as(source) : at::Tensor();
+  check_inputs(source, target, w3, m3);
+  at::Tensor xs, ys, ws;
+  std::tie(xs, ys, ws) = sanitize(source, target, w3, m3);
+  const int64_t n = source.size(-2);
+  auto rows = [n](const at::Tensor& t) { return t.reshape({-1, n, 3}).transpose(1, 2).contiguous(); };
+  return {rows(xs), rows(ys), rows(ws)};
+}
+
+std::vector<int64_t> batch_shape_of(const at::Tensor& t, int64_t sample_dims) {
+  return t.sizes().slice(0, t.dim() - sample_dims).vec();
+}
+
+AffineFit reshape_affine(AffineFit fit, const std::vector<int64_t>& batch_shape, bool points) {
+  std::vector<int64_t> shift_shape = batch_shape;
+  if (points) shift_shape.push_back(3);
+  return {fit.scale.reshape(batch_shape), fit.shift.reshape(shift_shape), fit.loss.reshape(batch_shape)};
+}
+
+}  // namespace
+
+ScaleFit fit_scale_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                      const at::Tensor& mask) {
+  check_inputs(x, y, weight, mask);
+  at::Tensor xs, ys, ws;
+  std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
+  const int64_t n = x.size(-1);
+  return reshape_fit(scale_fit_rows(xs.reshape({-1, n}), ys.reshape({-1, n}), ws.reshape({-1, n})),
+                     batch_shape_of(x, 1));
+}
+
+ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                                double trunc, const at::Tensor& mask) {
+  if (!(trunc > 0)) throw std::invalid_argument("alignment: trunc must be positive");
+  check_inputs(x, y, weight, mask);
+  at::Tensor xs, ys, ws;
+  std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
+  const int64_t n = x.size(-1);
+  return reshape_fit(
+      truncated_scale_fit_rows(xs.reshape({-1, n}), ys.reshape({-1, n}), ws.reshape({-1, n}), trunc),
+      batch_shape_of(x, 1));
+}
+
+AffineFit fit_affine_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                        const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = depth_rows(x, y, weight, mask);
+  AffineFit fit = pivot_descent(X, Y, W);
+  fit.shift = fit.shift.squeeze(-1);
+  return reshape_affine(fit, batch_shape_of(x, 1), false);
+}
+
+AffineFit fit_affine_l1_brute_force(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                                    const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = depth_rows(x, y, weight, mask);
+  const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
+  AffineFit fit = anchored_search(X, Y, W, all);
+  fit.shift = fit.shift.squeeze(-1);
+  return reshape_affine(fit, batch_shape_of(x, 1), false);
+}
+
+ScaleFit fit_points_scale_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
+                             const at::Tensor& mask, double trunc) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  const ScaleFit fit = trunc > 0 ? truncated_scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1), trunc)
+                                 : scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1));
+  // Report the index into the (n, 3) layout of the input.
+  const int64_t n = X.size(2);
+  const at::Tensor index = at::where(fit.index >= 0, (fit.index % n) * 3 + fit.index.div(n, "floor"), fit.index);
+  return reshape_fit({fit.scale, fit.loss, index}, batch_shape_of(source, 2));
+}
+
+at::Tensor fit_points_shift_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
+                               const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  const at::Tensor ones = at::where(W > 0, at::ones_like(X), at::zeros_like(X));
+  const at::Tensor shift = scale_fit_rows(ones, Y - X, W).scale;  // (B, 3)
+  std::vector<int64_t> shape = batch_shape_of(source, 2);
+  shape.push_back(3);
+  return shift.reshape(shape);
+}
+
+AffineFit fit_points_affine_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
+                               const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  return reshape_affine(pivot_descent(X, Y, W), batch_shape_of(source, 2), true);
+}
+
+AffineFit fit_points_affine_l1_anchored(const at::Tensor& source, const at::Tensor& target,
+                                        const at::Tensor& weight, const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  return reshape_affine(pruned_anchored_search(X, Y, W), batch_shape_of(source, 2), true);
+}
+
+AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source, const at::Tensor& target,
+                                                    const at::Tensor& weight, const at::Tensor& mask) {
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
+  return reshape_affine(anchored_search(X, Y, W, all), batch_shape_of(source, 2), true);
+}
+
+}  // namespace omnipoint::geometry
