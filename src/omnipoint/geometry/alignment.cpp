@@ -158,30 +158,38 @@ ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in
   return {scale, loss, index};
 }
 
-// One-sided weighted-median pivots of the residuals R = Y − s·X at s+ (right) or s− (left).
-// Just right of s the residuals order by (R ascending, X descending), just left by
-// (R ascending, X ascending), so a lexicographic sort gives the pivot k per axis that stays
-// a weighted median on a one-sided neighbourhood of s. Also returns the one-sided
-// derivative of F(s) = Σ_c min_t Σ_i w|Y − sX − t| there: Σ_i w_i·σ_i·(X_k − X_i), with
-// σ_i = +1 after the pivot in that order and −1 before it.
-std::pair<at::Tensor, at::Tensor> one_sided_pivots(const at::Tensor& R, const at::Tensor& X,
-                                                   const at::Tensor& W, bool right) {
-  const at::Tensor by_x = std::get<1>(at::sort(right ? -X : X, /*stable=*/true, -1, false));
-  const at::Tensor by_r = std::get<1>(at::sort(R.gather(-1, by_x), /*stable=*/true, -1, false));
-  const at::Tensor order = by_x.gather(-1, by_r);
+// Weighted-median pivots of the residuals R = Y − s·X per axis (B, C, 1), and the
+// derivative of F(s) = Σ_c min_t Σ_i w|R_i − t| there: Σ_i w_i·σ_i·(X_k − X_i), with
+// σ_i = +1 after the pivot k in sorted order and −1 before it. Meant for slopes s that are
+// not breakpoints of F (no tie among the residuals), where F is differentiable.
+std::pair<at::Tensor, at::Tensor> median_pivots(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
+                                                const at::Tensor& s) {
+  const at::Tensor order = std::get<1>((Y - s.view({-1, 1, 1}) * X).sort(-1));
   const at::Tensor ws = W.gather(-1, order);
   const at::Tensor wxs = ws * X.gather(-1, order);
   const at::Tensor pos = median_position(ws);
-  const at::Tensor pivot = order.gather(-1, pos);  // (B, C, 1)
+  const at::Tensor pivot = order.gather(-1, pos);
   const at::Tensor cw = ws.cumsum(-1), cwx = wxs.cumsum(-1);
   const at::Tensor w_upto = cw.gather(-1, pos), wx_upto = cwx.gather(-1, pos);
   const at::Tensor w_before = w_upto - ws.gather(-1, pos), wx_before = wx_upto - wxs.gather(-1, pos);
   const at::Tensor w_after = cw.narrow(-1, cw.size(-1) - 1, 1) - w_upto;
   const at::Tensor wx_after = cwx.narrow(-1, cwx.size(-1) - 1, 1) - wx_upto;
-  const at::Tensor xk = X.gather(-1, pivot);
-  const at::Tensor derivative =
-      (xk * (w_after - w_before) - (wx_after - wx_before)).sum({-2, -1});
+  const at::Tensor derivative = (X.gather(-1, pivot) * (w_after - w_before) - (wx_after - wx_before)).sum({-2, -1});
   return {pivot, derivative};
+}
+
+// The best scale through the given pivots: min_σ Σ_c Σ_i w|(Y − Y_k) − σ(X − X_k)|.
+at::Tensor scale_through(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W, const at::Tensor& pivot) {
+  const at::Tensor x = (X - X.gather(-1, pivot)).flatten(1), y = (Y - Y.gather(-1, pivot)).flatten(1);
+  return scale_fit_rows(x, y, W.flatten(1)).scale;
+}
+
+// The optimal shifts for a given scale (per-axis weighted medians of the residuals).
+at::Tensor median_shift(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W, const at::Tensor& s) {
+  const at::Tensor R = Y - s.view({-1, 1, 1}) * X;
+  at::Tensor sorted, order;
+  std::tie(sorted, order) = R.sort(-1);
+  return sorted.gather(-1, median_position(W.gather(-1, order))).squeeze(-1);
 }
 
 at::Tensor affine_loss(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
@@ -191,43 +199,57 @@ at::Tensor affine_loss(const at::Tensor& X, const at::Tensor& Y, const at::Tenso
 
 // Exact min_{s, t_c} Σ_{c,i} w_ci |s·X_ci + t_c − Y_ci| on (B, C, n) sanitized samples.
 //
-// F(s) = Σ_c min_t (...) is convex and piecewise linear in s. Let k_c be the one-sided
-// median pivots at s (see one_sided_pivots). M(σ) = Σ_c Σ_i w|(Y − Y_k) − σ(X − X_k)| is
-// ≥ F(σ) everywhere (t restricted to pass through the pivots) and equals F on that side
-// of s. If F's derivative on that side is negative, minimising M (one weighted-median
-// scale fit) gives σ on that side with F(σ) ≤ M(σ) < M(s) = F(s): a strict descent that
-// lands on a breakpoint of F. Breakpoints are finitely many, so the walk stops, and it
-// stops only where F'(s−) ≤ 0 ≤ F'(s+), i.e. at the global minimum of the convex F.
-// The shift is then t_c = Y_kc − s·X_kc, a weighted median of the residuals.
-AffineFit pivot_descent(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W) {
+// F(s) = Σ_c min_t (...) is convex and piecewise linear in s; its breakpoints are the
+// slopes at which two residuals of an axis tie. Let k_c be the median pivots at a slope p
+// that is not a breakpoint. M(σ) = Σ_c Σ_i w|(Y − Y_k) − σ(X − X_k)| (the shifts forced
+// through the pivots) is ≥ F(σ) everywhere and equals F around p. If F'(p) < 0, the
+// minimiser σ of M (one weighted-median scale fit) lies beyond p with F(σ) ≤ M(σ) < F(p):
+// a strict descent onto a breakpoint. Probing just right and left of the current
+// breakpoint s (at s ± δ, δ a relative 1e-9, so that ties at s do not matter), the walk
+// moves until F'(s − δ) ≤ 0 ≤ F'(s + δ). Breakpoints are finitely many, so it stops, with
+// the convex F's minimum in [s − δ, s + δ]. The pivots at s ± δ lie on the pieces next to
+// that minimum, so the better of the fits through them is the exact minimum whenever no
+// other breakpoint lies within δ (otherwise it is within δ of it). Computed in float64.
+AffineFit pivot_descent(const at::Tensor& X_in, const at::Tensor& Y_in, const at::Tensor& W_in) {
+  const at::Tensor X = X_in.to(at::kDouble), Y = Y_in.to(at::kDouble), W = W_in.to(at::kDouble);
   const int64_t batch = X.size(0);
+  constexpr double kProbe = 1e-9;
   at::Tensor s = scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1)).scale;
   s = at::where(at::isfinite(s), s, at::zeros_like(s));
   at::Tensor active = at::ones({batch}, X.options().dtype(at::kBool));
-  for (int iteration = 0; iteration < kMaxPivotIterations; ++iteration) {
-    const at::Tensor R = Y - s.view({-1, 1, 1}) * X;
+  auto probe = [&](const at::Tensor& s, double side) { return s + side * kProbe * s.abs().clamp_min(1e-6); };
+  for (int iteration = 0; iteration < kMaxPivotIterations && active.any().item<bool>(); ++iteration) {
     at::Tensor right_pivot, right_slope, left_pivot, left_slope;
-    std::tie(right_pivot, right_slope) = one_sided_pivots(R, X, W, /*right=*/true);
-    std::tie(left_pivot, left_slope) = one_sided_pivots(R, X, W, /*right=*/false);
+    std::tie(right_pivot, right_slope) = median_pivots(X, Y, W, probe(s, 1));
+    std::tie(left_pivot, left_slope) = median_pivots(X, Y, W, probe(s, -1));
     const at::Tensor go_right = right_slope < 0;
     const at::Tensor go_left = at::logical_and(at::logical_not(go_right), left_slope > 0);
-    const at::Tensor moving = at::logical_and(active, at::logical_or(go_right, go_left));
-    if (!moving.any().item<bool>()) break;
+    active = at::logical_and(active, at::logical_or(go_right, go_left));
     const at::Tensor pivot = at::where(go_right.view({-1, 1, 1}), right_pivot, left_pivot);
-    const at::Tensor anchored_x = X - X.gather(-1, pivot);
-    const at::Tensor anchored_y = Y - Y.gather(-1, pivot);
-    const at::Tensor next = scale_fit_rows(anchored_x.flatten(1), anchored_y.flatten(1), W.flatten(1)).scale;
+    const at::Tensor next = scale_through(X, Y, W, pivot);
     // In exact arithmetic a move always changes s; rounding can stall it at the optimum.
-    active = at::logical_and(moving, at::logical_and(at::isfinite(next), next != s));
+    active = at::logical_and(active, at::logical_and(at::isfinite(next), next != s));
     s = at::where(active, next, s);
-    if (!active.any().item<bool>()) break;
   }
-  const at::Tensor pivot = one_sided_pivots(Y - s.view({-1, 1, 1}) * X, X, W, true).first;
-  at::Tensor shift = (Y.gather(-1, pivot) - s.view({-1, 1, 1}) * X.gather(-1, pivot)).squeeze(-1);
+  // Settle: the better of the fits through the pivots on either side of the optimum.
+  at::Tensor best_s = s, best_t = median_shift(X, Y, W, s);
+  at::Tensor best_loss = affine_loss(X, Y, W, best_s, best_t);
+  for (double side : {-1.0, 1.0}) {
+    at::Tensor candidate = scale_through(X, Y, W, median_pivots(X, Y, W, probe(s, side)).first);
+    candidate = at::where(at::isfinite(candidate), candidate, s);
+    const at::Tensor shift = median_shift(X, Y, W, candidate);
+    const at::Tensor loss = affine_loss(X, Y, W, candidate, shift);
+    const at::Tensor better = loss < best_loss;
+    best_s = at::where(better, candidate, best_s);
+    best_t = at::where(better.unsqueeze(-1), shift, best_t);
+    best_loss = at::where(better, loss, best_loss);
+  }
   const at::Tensor empty = W.sum({-2, -1}) <= 0;
-  s = at::where(empty, nan_like(s), s);
-  shift = at::where(empty.unsqueeze(-1), nan_like(shift), shift);
-  return {s, shift, affine_loss(X, Y, W, s, shift)};
+  best_s = at::where(empty, nan_like(best_s), best_s);
+  best_t = at::where(empty.unsqueeze(-1), nan_like(best_t), best_t);
+  const auto dtype = X_in.scalar_type();
+  const at::Tensor scale = best_s.to(dtype), shift = best_t.to(dtype);
+  return {scale, shift, affine_loss(X_in, Y_in, W_in, scale, shift)};
 }
 
 // MoGe's anchored search on (B, C, n): every candidate sample j (all C axes pass through
