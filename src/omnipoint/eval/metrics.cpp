@@ -40,6 +40,9 @@ std::vector<double> to_vector(const at::Tensor& t) {
 
 bool all_finite(const at::Tensor& t) { return at::isfinite(t).all().item<bool>(); }
 
+// Whether all samples (rows along dim 0) are equal: an affine fit's scale is then undetermined.
+bool constant_rows(const at::Tensor& t) { return t.numel() == 0 || at::equal(t, t[0].expand_as(t)); }
+
 // Records an entry; a non-finite score becomes NaN with a warning naming the reason.
 void record(Metrics& out, const std::string& entry, Score score, Alignment alignment, const std::string& reason) {
   if (!std::isfinite(score.rel) || !std::isfinite(score.delta1) ||
@@ -93,9 +96,13 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   record(out, "depth_scale_invariant", depth_score(p * scale, g), {scale.item<double>(), {}, kNaN},
          "the prediction is zero on the alignment samples");
 
-  const geometry::AffineFit affine = geometry::fit_affine_l1(p_sub, g_sub, w_sub);
-  record(out, "depth_affine_invariant", depth_score(p * affine.scale + affine.shift, g),
-         {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
+  if (constant_rows(p_sub)) {
+    record_undefined(out, "depth_affine_invariant", "the prediction is constant on the alignment samples");
+  } else {
+    const geometry::AffineFit affine = geometry::fit_affine_l1(p_sub, g_sub, w_sub);
+    record(out, "depth_affine_invariant", depth_score(p * affine.scale + affine.shift, g),
+           {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
+  }
 
   // Least squares on disparity over all valid pixels, in double; then clamped back to depth.
   const at::Tensor d = (1 / p).to(at::kDouble), target = (1 / g).to(at::kDouble);
@@ -142,9 +149,13 @@ void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   const at::Tensor scale = geometry::fit_points_scale_l1(p_sub, g_sub, w_sub).scale;
   record(out, "points_scale_invariant", points_score(p * scale, g), {scale.item<double>(), {}, kNaN},
          "the predicted points are zero on the alignment samples");
-  const geometry::AffineFit affine = geometry::fit_points_affine_l1_anchored(p_sub, g_sub, w_sub);
-  record(out, "points_affine_invariant", points_score(p * affine.scale + affine.shift, g),
-         {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
+  if (constant_rows(p_sub)) {
+    record_undefined(out, "points_affine_invariant", "the predicted points are all equal on the alignment samples");
+  } else {
+    const geometry::AffineFit affine = geometry::fit_points_affine_l1_anchored(p_sub, g_sub, w_sub);
+    record(out, "points_affine_invariant", points_score(p * affine.scale + affine.shift, g),
+           {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
+  }
 }
 
 }  // namespace

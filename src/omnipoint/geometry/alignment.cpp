@@ -252,24 +252,33 @@ AffineFit pivot_descent(const at::Tensor& X_in, const at::Tensor& Y_in, const at
   return {scale, shift, affine_loss(X_in, Y_in, W_in, scale, shift)};
 }
 
-// MoGe's anchored search on (B, C, n): every candidate sample j (all C axes pass through
-// it) gets a pooled scale fit through it, the lowest loss wins (the first on ties).
-// `candidates` (B, n) bool limits the anchors tried; samples without weight are never tried.
+// MoGe's anchored search on (B, C, n): candidate samples j (all C axes pass through them)
+// get a pooled scale fit through them, the lowest loss wins. Candidates are tried in order
+// of their lower bound `lower` (B, n) and the search stops once no remaining bound is below
+// the best loss found (up to a rounding slack); samples without weight are never tried.
 AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
-                          const at::Tensor& candidates) {
+                          const at::Tensor& candidates, const at::Tensor& lower) {
   const int64_t batch = X.size(0), axes = X.size(1), n = X.size(2);
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<at::Tensor> scales, shifts;
-  const int64_t chunk = std::max<int64_t>(1, kMaxElementsPerChunk / std::max<int64_t>(1, axes * n));
+  const int64_t max_chunk = std::max<int64_t>(1, kMaxElementsPerChunk / std::max<int64_t>(1, axes * n));
   for (int64_t b = 0; b < batch; ++b) {
     const at::Tensor xb = X[b], yb = Y[b], wb = W[b];  // (C, n)
-    const at::Tensor anchors = at::logical_and(candidates[b], (wb > 0).any(0)).nonzero().flatten();
+    const at::Tensor usable = at::logical_and(candidates[b], (wb > 0).any(0));
+    const at::Tensor bounds = at::where(usable, lower[b].to(at::kDouble), at::full({}, inf, lower.options().dtype(at::kDouble)));
+    at::Tensor sorted_bounds, order;
+    std::tie(sorted_bounds, order) = at::sort(bounds, /*stable=*/true, 0, false);
+    const int64_t count = usable.sum().item<int64_t>();
+    // Losses closer than the dtype's rounding are ties: no need to solve further anchors.
+    const double slack = (X.scalar_type() == at::kDouble ? 1e-12 : 1e-6) * (wb * yb.abs()).sum().item<double>();
     const at::Tensor w_row = wb.flatten().unsqueeze(0);
-    at::Tensor best_loss = at::full({}, inf, X.options());
+    double best_loss = inf;
     at::Tensor best_scale = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
     at::Tensor best_anchor = at::zeros({}, X.options().dtype(at::kLong));
-    for (int64_t start = 0; start < anchors.numel(); start += chunk) {
-      const at::Tensor ids = anchors.narrow(0, start, std::min(chunk, anchors.numel() - start));
+    int64_t chunk = std::min<int64_t>(16, max_chunk);
+    for (int64_t start = 0; start < count; start += chunk, chunk = std::min(2 * chunk, max_chunk)) {
+      if (sorted_bounds[start].item<double>() >= best_loss - slack) break;
+      const at::Tensor ids = order.narrow(0, start, std::min(chunk, count - start));
       const at::Tensor x_rel = (xb.unsqueeze(0) - xb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
       const at::Tensor y_rel = (yb.unsqueeze(0) - yb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
       const ScaleFit fit = scale_fit_rows(x_rel, y_rel, w_row.expand_as(x_rel));
@@ -277,11 +286,12 @@ AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Te
       const at::Tensor free = at::isnan(fit.scale);
       const at::Tensor scale = at::where(free, at::zeros_like(fit.scale), fit.scale);
       const at::Tensor loss = at::where(free, (w_row * y_rel.abs()).sum(-1), fit.loss);
-      const at::Tensor i = loss.argmin();
-      const at::Tensor better = loss[i] < best_loss;
-      best_loss = at::where(better, loss[i], best_loss);
-      best_scale = at::where(better, scale[i], best_scale);
-      best_anchor = at::where(better, ids[i], best_anchor);
+      const int64_t i = loss.argmin().item<int64_t>();
+      if (loss[i].item<double>() < best_loss) {
+        best_loss = loss[i].item<double>();
+        best_scale = scale[i];
+        best_anchor = ids[i];
+      }
     }
     scales.push_back(best_scale);
     shifts.push_back(yb.index_select(1, best_anchor.view({1})).squeeze(1) -
@@ -349,7 +359,12 @@ AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const
   const at::Tensor upper = value.amin({1, 2}, /*keepdim=*/false).unsqueeze(-1);  // (B, 1)
   // Keep anchors within rounding of the bound, so the test errs on the side of solving.
   const at::Tensor candidates = lower <= upper + 1e-9 * upper.abs();
-  return anchored_search(X, Y, W, candidates);
+  return anchored_search(X, Y, W, candidates, lower);
+}
+
+// No lower bound for any anchor of (B, C, n) samples: the exhaustive search.
+at::Tensor unbounded(const at::Tensor& X) {
+  return at::full({X.size(0), X.size(2)}, -std::numeric_limits<double>::infinity(), X.options().dtype(at::kDouble));
 }
 
 // Flattens (..., n) samples into (B, 1, n) rows.
@@ -427,7 +442,7 @@ AffineFit fit_affine_l1_brute_force(const at::Tensor& x, const at::Tensor& y, co
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = depth_rows(x, y, weight, mask);
   const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
-  AffineFit fit = anchored_search(X, Y, W, all);
+  AffineFit fit = anchored_search(X, Y, W, all, unbounded(X));
   fit.shift = fit.shift.squeeze(-1);
   return reshape_affine(fit, batch_shape_of(x, 1), false);
 }
@@ -474,7 +489,7 @@ AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source, co
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
   const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
-  return reshape_affine(anchored_search(X, Y, W, all), batch_shape_of(source, 2), true);
+  return reshape_affine(anchored_search(X, Y, W, all, unbounded(X)), batch_shape_of(source, 2), true);
 }
 
 }  // namespace omnipoint::geometry
