@@ -303,62 +303,93 @@ AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Te
 
 // For every anchor j at once, the value and a subgradient of its anchored objective
 //   Φ_j(s) = Σ_c Σ_i w_ci |R_ci − R_cj|,  R = Y − s·X,
-// at each of the m slopes s (B, m): one sort per slope and axis plus prefix sums.
+// at each of the m slopes s (B, m): one sort per slope and axis plus prefix sums; tied
+// residuals are taken in sorted order, which still gives a valid subgradient.
 // Returns (value, slope), both (B, m, n).
 std::pair<at::Tensor, at::Tensor> anchored_objectives(const at::Tensor& X, const at::Tensor& Y,
                                                       const at::Tensor& W, const at::Tensor& s) {
-  const at::Tensor Xm = X.unsqueeze(1), Wm = W.unsqueeze(1).expand({-1, s.size(1), -1, -1});
-  const at::Tensor R = Y.unsqueeze(1) - s.view({s.size(0), s.size(1), 1, 1}) * Xm;  // (B, m, C, n)
+  const int64_t n = X.size(-1);
+  const at::Tensor R = Y.unsqueeze(1) - s.view({s.size(0), s.size(1), 1, 1}) * X.unsqueeze(1);  // (B, m, C, n)
   at::Tensor sorted, order;
   std::tie(sorted, order) = R.sort(-1);
-  auto prefix = [&](const at::Tensor& v) {
-    return at::constant_pad_nd(v.gather(-1, order).cumsum(-1), {1, 0}, 0.0);
-  };
-  const at::Tensor pw = prefix(Wm), pwr = prefix(Wm * R), pwx = prefix(Wm * Xm.expand_as(R));
-  const at::Tensor below = at::searchsorted(sorted, R, false, false);  // #{R_i < R_j}
-  const at::Tensor upto = at::searchsorted(sorted, R, false, true);    // #{R_i <= R_j}
-  auto at_ = [](const at::Tensor& v, const at::Tensor& i) { return v.gather(-1, i); };
-  auto total = [](const at::Tensor& v) { return v.narrow(-1, v.size(-1) - 1, 1); };
-  const at::Tensor w_lt = at_(pw, below), w_gt = total(pw) - at_(pw, upto);
-  const at::Tensor wr_lt = at_(pwr, below), wr_gt = total(pwr) - at_(pwr, upto);
-  const at::Tensor wx_lt = at_(pwx, below), wx_gt = total(pwx) - at_(pwx, upto);
-  const at::Tensor value = (R * w_lt - wr_lt + wr_gt - R * w_gt).sum(2);
-  const at::Tensor slope = (Xm * (w_gt - w_lt) - (wx_gt - wx_lt)).sum(2);
+  const at::Tensor ws = W.unsqueeze(1).expand_as(R).gather(-1, order);
+  const at::Tensor xs = X.unsqueeze(1).expand_as(R).gather(-1, order);
+  // Inclusive prefix sums in sorted order; "below" excludes the element itself.
+  const at::Tensor cw = ws.cumsum(-1), cwr = (ws * sorted).cumsum(-1), cwx = (ws * xs).cumsum(-1);
+  auto total = [n](const at::Tensor& v) { return v.narrow(-1, n - 1, 1); };
+  const at::Tensor w_lt = cw - ws, wr_lt = cwr - ws * sorted, wx_lt = cwx - ws * xs;
+  const at::Tensor w_gt = total(cw) - cw, wr_gt = total(cwr) - cwr, wx_gt = total(cwx) - cwx;
+  const at::Tensor value_sorted = sorted * w_lt - wr_lt + wr_gt - sorted * w_gt;
+  const at::Tensor slope_sorted = xs * (w_gt - w_lt) - (wx_gt - wx_lt);
+  // Back to anchor order, summed over the axes.
+  const at::Tensor value = at::empty_like(R).scatter_(-1, order, value_sorted).sum(2);
+  const at::Tensor slope = at::empty_like(R).scatter_(-1, order, slope_sorted).sum(2);
   return {value, slope};
 }
 
-// Exact anchored search with pruning. Each Φ_j is convex in s, so the tangents at slopes
-// s_1 < ... < s_m where its subgradient changes sign bound min Φ_j from below; evaluations
-// bound the overall optimum from above. Only anchors whose lower bound does not exceed the
-// best evaluation can win, and only they get the exact (sorting) fit.
-AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W) {
-  const at::Tensor Xd = X.to(at::kDouble), Yd = Y.to(at::kDouble), Wd = W.to(at::kDouble);
-  // Slopes spread around the unrestricted optimum, which the anchored ones cluster about.
-  at::Tensor centre = pivot_descent(Xd, Yd, Wd).scale;
-  centre = at::where(at::isfinite(centre), centre, at::ones_like(centre));
-  const at::Tensor base = at::where(centre.abs() > 0, centre.abs(), at::ones_like(centre));
-  const at::Tensor offsets = at::tensor({-10.0, -3.0, -1.0, -0.3, -0.1, -0.03, -1e-2, -3e-3, -1e-3, -1e-4, -1e-5, 0.0,
-                                         1e-5, 1e-4, 1e-3, 3e-3, 1e-2, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0},
-                                        Xd.options());
-  const at::Tensor s = centre.unsqueeze(1) + base.unsqueeze(1) * offsets.unsqueeze(0);  // (B, m)
-  at::Tensor value, slope;
-  std::tie(value, slope) = anchored_objectives(Xd, Yd, Wd, s);
-  const int64_t m = s.size(1);
+// Lower bound of min_s Φ_j for every anchor from tangents at sorted slopes s (B, m): where
+// the subgradient changes sign between s_l and s_l+1 the minimum lies in between, above
+// both tangents, so above their crossing. Returns (bound, crossing slope), both (B, n);
+// -inf / NaN where the sign does not change within the slopes.
+std::pair<at::Tensor, at::Tensor> tangent_bounds(const at::Tensor& s, const at::Tensor& value, const at::Tensor& slope) {
   const double inf = std::numeric_limits<double>::infinity();
   at::Tensor lower = at::full_like(value.select(1, 0), -inf);
-  for (int64_t l = 0; l + 1 < m; ++l) {
+  at::Tensor crossing = at::full_like(lower, std::numeric_limits<double>::quiet_NaN());
+  for (int64_t l = 0; l + 1 < s.size(1); ++l) {
     const at::Tensor f0 = value.select(1, l), f1 = value.select(1, l + 1);
     const at::Tensor d0 = slope.select(1, l), d1 = slope.select(1, l + 1);
     const at::Tensor s0 = s.select(1, l).unsqueeze(-1), s1 = s.select(1, l + 1).unsqueeze(-1);
     const at::Tensor bracket = at::logical_and(d0 <= 0, d1 >= 0);
     const at::Tensor denominator = d1 - d0;
-    const at::Tensor crossing = (f0 - f1 - d0 * s0 + d1 * s1) / at::where(denominator > 0, denominator, at::ones_like(denominator));
-    const at::Tensor bound = at::where(denominator > 0, f0 + d0 * (crossing - s0), at::minimum(f0, f1));
-    lower = at::where(bracket, at::maximum(lower, bound), lower);
+    const at::Tensor safe = at::where(denominator > 0, denominator, at::ones_like(denominator));
+    const at::Tensor x = at::where(denominator > 0, (f0 - f1 - d0 * s0 + d1 * s1) / safe, s0.expand_as(f0));
+    const at::Tensor bound = at::where(denominator > 0, f0 + d0 * (x - s0), at::minimum(f0, f1));
+    const at::Tensor tighter = at::logical_and(bracket, bound > lower);
+    lower = at::where(tighter, bound, lower);
+    crossing = at::where(tighter, x, crossing);
   }
-  const at::Tensor upper = value.amin({1, 2}, /*keepdim=*/false).unsqueeze(-1);  // (B, 1)
-  // Keep anchors within rounding of the bound, so the test errs on the side of solving.
-  const at::Tensor candidates = lower <= upper + 1e-9 * upper.abs();
+  return {lower, crossing};
+}
+
+// Exact anchored search with pruning. Each Φ_j is convex in s, so tangents bound min Φ_j
+// from below (tangent_bounds) and evaluations bound the overall optimum from above. Only
+// anchors whose lower bound does not exceed the best evaluation can win. The slopes start
+// spread around the unrestricted optimum (which the anchored ones cluster about) and are
+// refined where the surviving anchors' minima lie; the survivors get the exact fit, best
+// bound first, until no bound is below the best loss found.
+AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W) {
+  constexpr int kRefinements = 3, kSlopesPerRefinement = 12;
+  constexpr int64_t kFewCandidates = 32;
+  const at::Tensor Xd = X.to(at::kDouble), Yd = Y.to(at::kDouble), Wd = W.to(at::kDouble);
+  at::Tensor centre = pivot_descent(Xd, Yd, Wd).scale;
+  centre = at::where(at::isfinite(centre), centre, at::ones_like(centre));
+  const at::Tensor base = at::where(centre.abs() > 0, centre.abs(), at::ones_like(centre));
+  const at::Tensor offsets = at::tensor({-10.0, -3.0, -1.0, -0.3, -0.1, -0.03, -1e-2, -3e-3, -1e-3, -1e-4, 0.0,
+                                         1e-4, 1e-3, 3e-3, 1e-2, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0},
+                                        Xd.options());
+  at::Tensor s = centre.unsqueeze(1) + base.unsqueeze(1) * offsets.unsqueeze(0);  // (B, m)
+  at::Tensor value, slope, lower, crossing, candidates;
+  std::tie(value, slope) = anchored_objectives(Xd, Yd, Wd, s);
+  for (int round = 0;; ++round) {
+    std::tie(lower, crossing) = tangent_bounds(s, value, slope);
+    const at::Tensor upper = value.amin({1, 2}).unsqueeze(-1);  // (B, 1)
+    // Keep anchors within rounding of the bound, so the test errs on the side of solving.
+    candidates = lower <= upper + 1e-9 * upper.abs();
+    if (round == kRefinements || candidates.sum(-1).max().item<int64_t>() <= kFewCandidates) break;
+    // New slopes at quantiles of the candidates' tangent crossings, where their minima lie.
+    const at::Tensor q = at::linspace(0.0, 1.0, kSlopesPerRefinement, Xd.options());
+    const at::Tensor at_candidates = at::where(at::logical_and(candidates, at::isfinite(crossing)), crossing,
+                                               at::full({}, std::numeric_limits<double>::quiet_NaN(), Xd.options()));
+    at::Tensor extra = at::nanquantile(at_candidates, q, -1).t();  // (B, K)
+    extra = at::where(at::isfinite(extra), extra, centre.unsqueeze(1));
+    at::Tensor extra_value, extra_slope;
+    std::tie(extra_value, extra_slope) = anchored_objectives(Xd, Yd, Wd, extra);
+    at::Tensor order;
+    std::tie(s, order) = at::cat({s, extra}, 1).sort(1);
+    const at::Tensor index = order.unsqueeze(-1).expand({-1, -1, value.size(2)});
+    value = at::cat({value, extra_value}, 1).gather(1, index);
+    slope = at::cat({slope, extra_slope}, 1).gather(1, index);
+  }
   return anchored_search(X, Y, W, candidates, lower);
 }
 
