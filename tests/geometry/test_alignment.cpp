@@ -157,6 +157,18 @@ TEST(AffineFit, DegenerateInputsStayFinite) {
   EXPECT_TRUE(std::isnan(empty.shift.item<double>()));
 }
 
+TEST(Alignment, NoSamplesGiveNaN) {
+  const at::Tensor none = at::zeros({2, 0}, at::kDouble), none3 = at::zeros({2, 0, 3}, at::kDouble);
+  EXPECT_TRUE(at::isnan(fit_scale_l1(none, none, none).scale).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_scale_l1_truncated(none, none, none, 1.0).scale).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_affine_l1(none, none, none).scale).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_affine_l1_brute_force(none, none, none).shift).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_points_affine_l1(none3, none3, none).shift).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_points_affine_l1_anchored(none3, none3, none).scale).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_points_shift_l1(none3, none3, none)).all().item<bool>());
+  EXPECT_TRUE(at::isnan(fit_points_scale_l1(none3, none3, none).scale).all().item<bool>());
+}
+
 TEST(AffineFit, BatchedWithMasksEqualsPerItem) {
   at::manual_seed(4);
   const at::Tensor x = at::rand({4, 200}, at::kFloat) + 0.5, y = 0.7 * x - 2 + 0.05 * at::randn({4, 200});

@@ -51,6 +51,12 @@ std::tuple<at::Tensor, at::Tensor, at::Tensor> sanitize(const at::Tensor& x, con
   return {at::where(mask, x, zero), at::where(mask, y, zero), at::where(mask, w, zero)};
 }
 
+// Gives sample-less rows one inert (zero-weight) sample, so that every solver below sees
+// n >= 1 and reports "no usable sample" as NaN.
+at::Tensor pad_empty(const at::Tensor& t) {
+  return t.size(-1) == 0 ? at::constant_pad_nd(t, {0, 1}, 0.0) : t;
+}
+
 // Position, along the last dim of the sorted weights, of the first element whose
 // cumulative weight reaches half of the total (MoGe's tie rule).
 at::Tensor median_position(const at::Tensor& sorted_weight) {
@@ -398,6 +404,13 @@ at::Tensor unbounded(const at::Tensor& X) {
   return at::full({X.size(0), X.size(2)}, -std::numeric_limits<double>::infinity(), X.options().dtype(at::kDouble));
 }
 
+// The number of batch items of samples with `sample_dims` trailing sample dimensions.
+int64_t batch_count(const at::Tensor& t, int64_t sample_dims) {
+  int64_t count = 1;
+  for (int64_t i = 0; i < t.dim() - sample_dims; ++i) count *= t.size(i);
+  return count;
+}
+
 // Flattens (..., n) samples into (B, 1, n) rows.
 std::tuple<at::Tensor, at::Tensor, at::Tensor> depth_rows(const at::Tensor& x, const at::Tensor& y,
                                                           const at::Tensor& weight, const at::Tensor& mask) {
@@ -405,7 +418,8 @@ std::tuple<at::Tensor, at::Tensor, at::Tensor> depth_rows(const at::Tensor& x, c
   at::Tensor xs, ys, ws;
   std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
   const int64_t n = x.size(-1);
-  return {xs.reshape({-1, 1, n}), ys.reshape({-1, 1, n}), ws.reshape({-1, 1, n})};
+  const int64_t b = batch_count(x, 1);
+  return {pad_empty(xs.reshape({b, 1, n})), pad_empty(ys.reshape({b, 1, n})), pad_empty(ws.reshape({b, 1, n}))};
 }
 
 // Points (..., n, 3) with weight (..., n) into (B, 3, n) axis rows.
@@ -421,7 +435,8 @@ std::tuple<at::Tensor, at::Tensor, at::Tensor> points_rows(const at::Tensor& sou
   at::Tensor xs, ys, ws;
   std::tie(xs, ys, ws) = sanitize(source, target, w3, m3);
   const int64_t n = source.size(-2);
-  auto rows = [n](const at::Tensor& t) { return t.reshape({-1, n, 3}).transpose(1, 2).contiguous(); };
+  const int64_t b = batch_count(source, 2);
+  auto rows = [n, b](const at::Tensor& t) { return pad_empty(t.reshape({b, n, 3}).transpose(1, 2).contiguous()); };
   return {rows(xs), rows(ys), rows(ws)};
 }
 
@@ -443,8 +458,9 @@ ScaleFit fit_scale_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor
   at::Tensor xs, ys, ws;
   std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
   const int64_t n = x.size(-1);
-  return reshape_fit(scale_fit_rows(xs.reshape({-1, n}), ys.reshape({-1, n}), ws.reshape({-1, n})),
-                     batch_shape_of(x, 1));
+  const int64_t b = batch_count(x, 1);
+  auto rows = [n, b](const at::Tensor& t) { return pad_empty(t.reshape({b, n})); };
+  return reshape_fit(scale_fit_rows(rows(xs), rows(ys), rows(ws)), batch_shape_of(x, 1));
 }
 
 ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
@@ -454,9 +470,9 @@ ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const 
   at::Tensor xs, ys, ws;
   std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
   const int64_t n = x.size(-1);
-  return reshape_fit(
-      truncated_scale_fit_rows(xs.reshape({-1, n}), ys.reshape({-1, n}), ws.reshape({-1, n}), trunc),
-      batch_shape_of(x, 1));
+  const int64_t b = batch_count(x, 1);
+  auto rows = [n, b](const at::Tensor& t) { return pad_empty(t.reshape({b, n})); };
+  return reshape_fit(truncated_scale_fit_rows(rows(xs), rows(ys), rows(ws), trunc), batch_shape_of(x, 1));
 }
 
 AffineFit fit_affine_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
