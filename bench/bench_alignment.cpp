@@ -83,6 +83,13 @@ void BM_PointsAffineGlobal(benchmark::State& state) {
 }
 BENCHMARK(BM_PointsAffineGlobal)->Arg(4096)->Unit(benchmark::kMillisecond);
 
+void BM_PointsScaleZShiftTruncated(benchmark::State& state) {
+  const PointSamples s = point_samples(state.range(0));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_points_scale_z_shift_l1_truncated(s.pred, s.gt, s.weight, 1.0).scale);
+}
+BENCHMARK(BM_PointsScaleZShiftTruncated)->Arg(1024)->Unit(benchmark::kMillisecond);
+
 void BM_ScaleMedian(benchmark::State& state) {
   const DepthSamples s = depth_samples(state.range(0));
   for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_scale_l1(s.pred, s.gt, s.weight).scale);

@@ -252,6 +252,43 @@ TEST(PointsFit, PrunedAnchoredEqualsBruteForce) {
   }
 }
 
+TEST(PointsFit, TruncatedScaleZShiftEqualsVertexSearch) {
+  // Independent reference: the minimum lies where two zero-residual lines of the terms
+  // cross in the (s, t_z) plane (x/y terms: s = g/p; z terms: s·p_z + t = g_z).
+  at::manual_seed(9);
+  for (int trial = 0; trial < 10; ++trial) {
+    const int64_t n = 4 + trial % 4;
+    const at::Tensor p = at::rand({n, 3}, at::kDouble) + 0.2;
+    at::Tensor g = 1.6 * p + at::tensor({0.0, 0.0, 0.7}, at::kDouble) + 0.05 * at::randn({n, 3}, at::kDouble);
+    g[0][1] = 9.0;  // an outlier the truncation ignores
+    const at::Tensor w = at::rand({n}, at::kDouble) + 0.5;
+    const double trunc = 0.3;
+    auto objective = [&](double s, double t) {
+      const at::Tensor shift = at::tensor({0.0, 0.0, t}, at::kDouble);
+      return (w.unsqueeze(-1) * (s * p + shift - g).abs()).clamp_max(trunc).sum().item<double>();
+    };
+    double best = std::numeric_limits<double>::infinity();
+    for (int64_t k = 0; k < n; ++k)
+      for (int64_t j = 0; j < n; ++j)
+        for (int c = 0; c < 3; ++c) {
+          const double pk = p[k][c].item<double>(), gk = g[k][c].item<double>();
+          const double pz = p[j][2].item<double>(), gz = g[j][2].item<double>();
+          double s;
+          if (c < 2) {
+            s = gk / pk;
+          } else {
+            if (pk == pz) continue;
+            s = (gk - gz) / (pk - pz);
+          }
+          best = std::min(best, objective(s, gz - s * pz));
+        }
+    const AffineFit fit = fit_points_scale_z_shift_l1_truncated(p, g, w, trunc);
+    EXPECT_NEAR(fit.loss.item<double>(), best, 1e-9) << "trial " << trial;
+    EXPECT_EQ(fit.shift[0].item<double>(), 0.0);
+    EXPECT_NEAR(objective(fit.scale.item<double>(), fit.shift[2].item<double>()), best, 1e-9);
+  }
+}
+
 TEST(Alignment, RejectsMismatchedShapes) {
   const at::Tensor a = at::ones({5}), b = at::ones({4});
   EXPECT_THROW(fit_scale_l1(a, b, a), std::invalid_argument);

@@ -539,4 +539,43 @@ AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source, co
   return reshape_affine(anchored_search(X, Y, W, all, unbounded(X)), batch_shape_of(source, 2), true);
 }
 
+AffineFit fit_points_scale_z_shift_l1_truncated(const at::Tensor& source, const at::Tensor& target,
+                                                const at::Tensor& weight, double trunc, const at::Tensor& mask) {
+  if (!(trunc > 0)) throw std::invalid_argument("alignment: trunc must be positive");
+  at::Tensor X, Y, W;
+  std::tie(X, Y, W) = points_rows(source, target, weight, mask);
+  const int64_t batch = X.size(0), n = X.size(2);
+  const double inf = std::numeric_limits<double>::infinity();
+  const int64_t max_chunk = std::max<int64_t>(1, kMaxElementsPerChunk / (3 * n));
+  const at::Tensor z_only = at::tensor({0.0, 0.0, 1.0}, X.options()).view({1, 3, 1});
+  std::vector<at::Tensor> scales, shifts;
+  for (int64_t b = 0; b < batch; ++b) {
+    const at::Tensor xb = X[b], yb = Y[b], w_row = W[b].flatten().unsqueeze(0);
+    const at::Tensor anchors = (W[b][2] > 0).nonzero().flatten();
+    double best_loss = inf;
+    at::Tensor best_scale = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
+    at::Tensor best_shift = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
+    for (int64_t start = 0; start < anchors.numel(); start += max_chunk) {
+      const at::Tensor ids = anchors.narrow(0, start, std::min(max_chunk, anchors.numel() - start));
+      const at::Tensor px = xb[2].index_select(0, ids).view({-1, 1, 1}), gz = yb[2].index_select(0, ids).view({-1, 1, 1});
+      const at::Tensor x_rel = (xb.unsqueeze(0) - z_only * px).flatten(1);
+      const at::Tensor y_rel = (yb.unsqueeze(0) - z_only * gz).flatten(1);
+      const ScaleFit fit = truncated_scale_fit_rows(x_rel, y_rel, w_row.expand_as(x_rel), trunc);
+      const at::Tensor loss = at::where(at::isnan(fit.loss), at::full({}, inf, fit.loss.options()), fit.loss);
+      const int64_t i = loss.argmin().item<int64_t>();
+      if (loss[i].item<double>() < best_loss) {
+        best_loss = loss[i].item<double>();
+        best_scale = fit.scale[i];
+        best_shift = gz.flatten()[i] - fit.scale[i] * px.flatten()[i];
+      }
+    }
+    scales.push_back(best_scale);
+    shifts.push_back(at::stack({at::zeros_like(best_shift), at::zeros_like(best_shift), best_shift}));
+  }
+  const at::Tensor scale = at::stack(scales), shift = at::stack(shifts);
+  const at::Tensor loss =
+      (W * (scale.view({-1, 1, 1}) * X + shift.unsqueeze(-1) - Y).abs()).clamp_max(trunc).sum({-2, -1});
+  return reshape_affine({scale, shift, loss}, batch_shape_of(source, 2), true);
+}
+
 }  // namespace omnipoint::geometry

@@ -54,6 +54,15 @@ ScaleFit fit_points_scale_l1(const at::Tensor& source, const at::Tensor& target,
                              const at::Tensor& weight, const at::Tensor& mask = {},
                              double trunc = 0.0);
 
+// MoGe's training alignment (align_points_scale_z_shift with trunc): one scale and a z-only
+// shift, min over (s, t_z) of Σ_i Σ_c min(trunc, w_i |s·p_ic + t_c − g_ic|), t = (0, 0, t_z).
+// Not convex; some minimiser makes one sample's z residual vanish, so every sample is tried
+// as that anchor with an exact truncated scale fit: O(n² log n), meant for GPU training
+// batches. loss is the truncated objective.
+AffineFit fit_points_scale_z_shift_l1_truncated(const at::Tensor& source, const at::Tensor& target,
+                                                const at::Tensor& weight, double trunc,
+                                                const at::Tensor& mask = {});
+
 // Per-axis translation only: shift_c = argmin_t Σ_i w_i |p_ic + t − g_ic|. Returns (..., 3).
 at::Tensor fit_points_shift_l1(const at::Tensor& source, const at::Tensor& target,
                                const at::Tensor& weight, const at::Tensor& mask = {});
