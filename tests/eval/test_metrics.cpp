@@ -122,6 +122,15 @@ TEST(Metrics, ConstantAndZeroPredictions) {
   EXPECT_TRUE(has_warning(zeros, "points_scale_invariant"));
 }
 
+TEST(Metrics, NonPositiveAlignedDepthIsReported) {
+  const GroundTruth gt = scene(true);
+  at::Tensor depth = gt.depth.clone();
+  depth[25][35] = -1.0f;
+  const Metrics m = compute_metrics(predict(depth, at::Tensor(), true), gt);
+  EXPECT_TRUE(has_warning(m, "depth_metric: 1 aligned depths are <= 0"));
+  EXPECT_TRUE(std::isfinite(m.entries.at("depth_metric").delta1));
+}
+
 TEST(Metrics, InvalidGroundTruthInsideMaskGivesNaN) {
   GroundTruth gt = scene(true);
   gt.depth = gt.depth.clone();

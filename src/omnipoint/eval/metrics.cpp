@@ -19,7 +19,15 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kRelEps = 1e-6;  // MoGe's denominators g + 1e-6, ‖g‖ + 1e-6
 
-Score depth_score(const at::Tensor& p, const at::Tensor& g) {
+// MoGe's formulas, kept as they are for parity. A non-positive aligned depth passes its δ1
+// test (both ratios are negative); `notes` records how many there were.
+Score depth_score(const at::Tensor& p, const at::Tensor& g, const std::string& entry,
+                  std::vector<std::string>& notes) {
+  const int64_t non_positive = (p <= 0).sum().item<int64_t>();
+  if (non_positive > 0) {
+    notes.push_back(entry + ": " + std::to_string(non_positive) +
+                    " aligned depths are <= 0 (MoGe's delta1 counts them as within 1.25)");
+  }
   const double rel = ((p - g).abs() / (g + kRelEps)).mean().item<double>();
   const double delta1 = (at::maximum(g / p, p / g) < 1.25).to(p.scalar_type()).mean().item<double>();
   return {rel, delta1};
@@ -90,17 +98,17 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   const at::Tensor p_sub = pred.depth.flatten().index_select(0, lr_flat).to(g.scalar_type());
   const at::Tensor w_sub = 1 / g_sub;
 
-  if (metric) record(out, "depth_metric", depth_score(p, g), {kNaN, {}, kNaN}, "");
+  if (metric) record(out, "depth_metric", depth_score(p, g, "depth_metric", out.warnings), {kNaN, {}, kNaN}, "non-finite score");
 
   const at::Tensor scale = geometry::fit_scale_l1(p_sub, g_sub, w_sub).scale;
-  record(out, "depth_scale_invariant", depth_score(p * scale, g), {scale.item<double>(), {}, kNaN},
+  record(out, "depth_scale_invariant", depth_score(p * scale, g, "depth_scale_invariant", out.warnings), {scale.item<double>(), {}, kNaN},
          "the prediction is zero on the alignment samples");
 
   if (constant_rows(p_sub)) {
     record_undefined(out, "depth_affine_invariant", "the prediction is constant on the alignment samples");
   } else {
     const geometry::AffineFit affine = geometry::fit_affine_l1(p_sub, g_sub, w_sub);
-    record(out, "depth_affine_invariant", depth_score(p * affine.scale + affine.shift, g),
+    record(out, "depth_affine_invariant", depth_score(p * affine.scale + affine.shift, g, "depth_affine_invariant", out.warnings),
            {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
   }
 
@@ -118,7 +126,7 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   const double s = (n * sdt - sd * st) / det, t = (st - s * sd) / n;
   const double min_disparity = 1.0 / g.max().item<double>();
   const at::Tensor disparity = (s * (1 / p) + t).clamp_min(min_disparity);
-  record(out, "disparity_affine_invariant", depth_score(1 / disparity, g), {s, {t}, min_disparity},
+  record(out, "disparity_affine_invariant", depth_score(1 / disparity, g, "disparity_affine_invariant", out.warnings), {s, {t}, min_disparity},
          "degenerate disparity fit");
 }
 
