@@ -2,9 +2,10 @@
 # Installs the Debian packages OmniPoint needs that are missing. Usage: install_deps.sh [--tests]
 set -euo pipefail
 
+# libgloo-dev: the gloo headers that c10d's ProcessGroupGloo.hpp includes (Gloo itself is in libtorch_cpu).
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev)
+          libopencv-dev libgloo-dev)
 if [[ "${1:-}" == "--tests" ]]; then
   # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/.
   packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy)
