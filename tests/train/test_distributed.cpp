@@ -138,6 +138,7 @@ TEST(DistributedContextTest, OneProcessOperationsDoNothing) {
   EXPECT_EQ(context.all_reduce_mean_({x}), 0);
   EXPECT_TRUE(x.equal(at::arange(4, at::kFloat)));
   EXPECT_EQ(context.all_reduce_mean(2.5), 2.5);
+  EXPECT_FALSE(context.all_true(false));
   context.barrier();
 }
 
@@ -212,6 +213,8 @@ TEST(DistributedContextTest, ScalarMeansAndBarrier) {
     EXPECT_DOUBLE_EQ(means.at("a"), 3.0);
     EXPECT_DOUBLE_EQ(means.at("b"), 6.0);
     EXPECT_EQ(context.is_main(), context.rank() == 0);
+    EXPECT_TRUE(context.all_true(true));
+    EXPECT_FALSE(context.all_true(context.rank() != 1));
     const auto start = std::chrono::steady_clock::now();
     if (context.rank() == 2) std::this_thread::sleep_for(std::chrono::milliseconds(300));
     context.barrier();

@@ -45,6 +45,11 @@ int64_t run_bucketed(const std::vector<at::Tensor>& tensors, int64_t bucket_byte
   at::NoGradGuard no_grad;
   const auto buckets = plan_buckets(tensors, bucket_bytes);
   for (const auto& bucket : buckets) {
+    if (bucket.size() == 1 && tensors[bucket[0]].is_contiguous()) {  // a large tensor: no copies
+      at::Tensor alone = tensors[bucket[0]];
+      collective(alone);
+      continue;
+    }
     std::vector<at::Tensor> flat_parts;
     for (size_t i : bucket) flat_parts.push_back(tensors[i].reshape(-1));
     at::Tensor flat = at::cat(flat_parts);
@@ -234,6 +239,10 @@ std::map<std::string, double> DistributedContext::all_reduce_mean(const std::map
   size_t i = 0;
   for (const auto& [name, value] : values) means[name] = flat[i++];
   return means;
+}
+
+bool DistributedContext::all_true(bool value) const {
+  return all_reduce_mean(value ? 0.0 : 1.0) == 0.0;
 }
 
 void DistributedContext::barrier() const {

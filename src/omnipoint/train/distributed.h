@@ -94,6 +94,10 @@ class DistributedContext {
   // Keys must be the same on every rank.
   std::map<std::string, double> all_reduce_mean(const std::map<std::string, double>& values) const;
 
+  // Whether `value` is true on every rank, e.g. a finite loss: a step is skipped everywhere or
+  // nowhere, so that the ranks keep calling the same collectives.
+  bool all_true(bool value) const;
+
   // Returns when every rank has called it.
   void barrier() const;
 
