@@ -130,6 +130,34 @@ TEST(DistributedContextTest, UnreachableMasterFailsAfterTheTimeout) {
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
 }
 
+TEST(DistributedContextTest, MasterAloneFailsAfterTheTimeout) {
+  const int port = free_port();
+  DistributedOptions options;
+  options.timeout = std::chrono::milliseconds(1000);
+  try {
+    DistributedContext(DistributedEnv{0, 2, 0, "127.0.0.1", port}, options);
+    FAIL() << "joined a process group of 2 alone";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)), std::string::npos) << error.what();
+  }
+}
+
+TEST(DistributedContextTest, RanksMayStartBeforeTheMaster) {
+  const int port = free_port();
+  std::exception_ptr late_error;
+  std::thread early([&] {
+    try {
+      DistributedContext(DistributedEnv{1, 2, 1, "127.0.0.1", port}, test_options()).barrier();
+    } catch (...) {
+      late_error = std::current_exception();
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  DistributedContext(DistributedEnv{0, 2, 0, "127.0.0.1", port}, test_options()).barrier();
+  early.join();
+  if (late_error) std::rethrow_exception(late_error);
+}
+
 TEST(DistributedContextTest, OneProcessOperationsDoNothing) {
   const DistributedContext context;
   EXPECT_TRUE(context.is_main());

@@ -138,9 +138,11 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
     store_options.timeout = options.timeout;
     group_->store = c10::make_intrusive<c10d::TCPStore>(env.master_addr, store_options);
   } catch (const std::exception& error) {
-    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) + " could not " +
-                             (env.rank == 0 ? "host" : "reach") + " the rendezvous at MASTER_ADDR:MASTER_PORT=" +
-                             master + " within " + std::to_string(options.timeout.count()) + " ms: " + error.what());
+    const std::string failure = env.rank == 0 ? " could not host the rendezvous for " + std::to_string(env.world_size) +
+                                                    " ranks at MASTER_ADDR:MASTER_PORT="
+                                              : " could not reach the rendezvous at MASTER_ADDR:MASTER_PORT=";
+    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) + failure + master + " within " +
+                             std::to_string(options.timeout.count()) + " ms: " + error.what());
   }
   try {
 #ifdef USE_C10D_NCCL
