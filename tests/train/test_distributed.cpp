@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 #include <torch/nn/module.h>
 #include <torch/nn/modules/linear.h>
-#include <torch/optim/adamw.h>
+#include <torch/optim/sgd.h>
 
 #include <ATen/ATen.h>
 
@@ -290,7 +290,8 @@ at::Tensor train(const DistributedContext& context, std::vector<double>& losses)
 
   const at::Tensor shard = at::tensor(shard_indices(kItems, context.rank(), context.world_size()), at::kLong);
   const at::Tensor x = data.x.index_select(0, shard), y = data.y.index_select(0, shard);
-  torch::optim::AdamW optimizer(net->parameters(), torch::optim::AdamWOptions(0.05).weight_decay(0.1));
+  // SGD sees the gradient scale (AdamW would not) and decays a zero-filled gradient's parameter.
+  torch::optim::SGD optimizer(net->parameters(), torch::optim::SGDOptions(0.1).momentum(0.9).weight_decay(0.1));
   for (int step = 0; step < kSteps; ++step) {
     optimizer.zero_grad();
     const at::Tensor loss = (net->forward(x) - y).pow(2).mean();
