@@ -139,7 +139,10 @@ TEST(Safetensors, MalformedFilesAreRejected) {
   expect_parse_error(make_file("{}").substr(0, 9), "runs past the end of the file");
   expect_parse_error(make_file("{\"a\":"), "header is not valid JSON");
   expect_parse_error(make_file("[1,2]"), "header is not a JSON object");
-  expect_parse_error(make_file("{" + ok_entry + "," + ok_entry + "}", eight), "names 'a' twice");
+  expect_parse_error(make_file("{" + ok_entry + "," + ok_entry + "}", eight), "duplicate key 'a' in the header");
+  expect_parse_error(make_file(R"({"a":{"dtype":"F32","dtype":"F16","shape":[2],"data_offsets":[0,8]}})", eight),
+                     "duplicate key 'dtype' in the header");
+  expect_parse_error(make_file(R"({"__metadata__":{"f":"a","f":"b"}})"), "duplicate key 'f' in the header");
   expect_parse_error(make_file(R"({"a":{"shape":[2],"data_offsets":[0,8]}})", eight),
                      "tensor 'a': missing string field 'dtype'");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","data_offsets":[0,8]}})", eight),
@@ -234,4 +237,11 @@ TEST(Safetensors, NonContiguousInputIsWrittenInLogicalOrder) {
   const std::string bytes = encode_safetensors({{"t", t}});
   const SafetensorsFile back = parse_safetensors(bytes.data(), bytes.size(), "t");
   EXPECT_TRUE(at::equal(back.tensors.at("t"), t));
+}
+
+// nlohmann::json parses and frees iteratively, so a hostile header cannot overflow the stack.
+TEST(Safetensors, DeeplyNestedHeaderIsRejected) {
+  const std::size_t depth = 1000000;
+  const std::string header = "{\"a\":" + std::string(depth, '[') + std::string(depth, ']') + "}";
+  expect_parse_error(make_file(header), "tensor 'a': entry is not a JSON object");
 }

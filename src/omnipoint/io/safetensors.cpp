@@ -281,12 +281,17 @@ SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std:
   const char* payload = header + header_size;
   const std::uint64_t payload_size = size - 8 - header_size;
 
-  // nlohmann keeps the last of duplicate keys silently; a parser callback sees them all.
-  std::set<std::string> seen;
+  // nlohmann keeps the last of duplicate keys silently; readers that kept the first would
+  // see another file, so a parser callback rejects them in every object.
+  std::vector<std::set<std::string>> open_objects;
   std::string duplicate;
-  const json::parser_callback_t watch_keys = [&](int depth, json::parse_event_t event, json& parsed) {
-    if (event == json::parse_event_t::key && depth == 1 && duplicate.empty() &&
-        !seen.insert(parsed.get<std::string>()).second) {
+  const json::parser_callback_t watch_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) {
+      open_objects.emplace_back();
+    } else if (event == json::parse_event_t::object_end) {
+      open_objects.pop_back();
+    } else if (event == json::parse_event_t::key && duplicate.empty() &&
+               !open_objects.back().insert(parsed.get<std::string>()).second) {
       duplicate = parsed.get<std::string>();
     }
     return true;
@@ -298,7 +303,7 @@ SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std:
     fail(name, "header is not valid JSON: " + json_error_text(e));
   }
   if (!root.is_object()) fail(name, "header is not a JSON object");
-  if (!duplicate.empty()) fail(name, "the header names '" + duplicate + "' twice");
+  if (!duplicate.empty()) fail(name, "duplicate key '" + duplicate + "' in the header");
 
   SafetensorsFile out;
   std::vector<Entry> entries;

@@ -1,0 +1,195 @@
+// Camera specs: COLMAP cameras.txt lines and files, JSON objects and files (forms in camera.h).
+#include <nlohmann/json.hpp>
+
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/io/atomic_file.h"
+
+namespace omnipoint::camera {
+namespace {
+
+std::vector<std::string> split_whitespace(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::string> tokens;
+  for (std::string token; in >> token;) tokens.push_back(token);
+  return tokens;
+}
+
+std::string trim(const std::string& text) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) return "";
+  const auto last = text.find_last_not_of(" \t\r\n");
+  return text.substr(first, last - first + 1);
+}
+
+bool is_model_name(const std::string& token) {
+  if (token.empty() || !std::isalpha(static_cast<unsigned char>(token[0]))) return false;
+  for (const char c : token) {
+    if (!(std::isupper(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_')) return false;
+  }
+  return true;
+}
+
+bool is_integer(const std::string& token) {
+  if (token.empty()) return false;
+  std::size_t used = 0;
+  try {
+    std::stoll(token, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return used == token.size();
+}
+
+int64_t parse_size(const std::string& token, const std::string& what, const std::string& model) {
+  if (!is_integer(token)) {
+    throw std::invalid_argument(model + ": image " + what + " must be an integer, got '" + token + "'");
+  }
+  return std::stoll(token);
+}
+
+double parse_number(const std::string& token, const std::string& model, std::size_t index) {
+  // strtod accepts "nan" and "inf"; they are rejected as non-finite by the Camera.
+  char* end = nullptr;
+  const double value = std::strtod(token.c_str(), &end);
+  if (token.empty() || end != token.c_str() + token.size()) {
+    throw std::invalid_argument(model + ": parameter " + std::to_string(index + 1) +
+                                " is not a number: '" + token + "'; expects " +
+                                find_camera_model(model).expected_params());
+  }
+  return value;
+}
+
+// "MODEL W H PARAMS..." (tokens already split).
+Camera camera_from_tokens(const std::vector<std::string>& tokens, std::size_t first) {
+  const std::string& model = tokens[first];
+  const auto& found = find_camera_model(model);  // unknown model -> lists the known ones
+  if (tokens.size() < first + 3) {
+    throw std::invalid_argument(model + ": a camera line is 'MODEL WIDTH HEIGHT PARAMS...' with " +
+                                found.expected_params());
+  }
+  const int64_t width = parse_size(tokens[first + 1], "width", model);
+  const int64_t height = parse_size(tokens[first + 2], "height", model);
+  std::vector<double> params;
+  for (std::size_t i = first + 3; i < tokens.size(); ++i) {
+    params.push_back(parse_number(tokens[i], model, i - first - 3));
+  }
+  return Camera(model, width, height, std::move(params));
+}
+
+// A line is "MODEL W H ..." or "ID MODEL W H ...".
+bool looks_like_line(const std::vector<std::string>& tokens, std::size_t* model_index) {
+  if (!tokens.empty() && is_model_name(tokens[0])) {
+    *model_index = 0;
+    return true;
+  }
+  if (tokens.size() >= 2 && is_integer(tokens[0]) && is_model_name(tokens[1])) {
+    *model_index = 1;
+    return true;
+  }
+  return false;
+}
+
+Camera camera_from_json(const std::string& text, const std::string& source) {
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(source + ": not valid JSON (" + e.what() + ")");
+  }
+  const char* expected =
+      "expected {\"model\": NAME, \"width\": W, \"height\": H, \"params\": [...]}";
+  if (!json.is_object() || !json.contains("model") || !json["model"].is_string() ||
+      !json.contains("width") || !json["width"].is_number_integer() || !json.contains("height") ||
+      !json["height"].is_number_integer() || !json.contains("params") || !json["params"].is_array()) {
+    throw std::invalid_argument(source + ": " + expected);
+  }
+  std::vector<double> params;
+  for (const auto& value : json["params"]) {
+    if (!value.is_number()) throw std::invalid_argument(source + ": params must be numbers; " + expected);
+    params.push_back(value.get<double>());
+  }
+  return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
+                json["height"].get<int64_t>(), std::move(params));
+}
+
+// A cameras.txt file: '#' comments, then "ID MODEL W H PARAMS..." lines (or one "MODEL W H
+// PARAMS..." line). `id` empty -> the first camera.
+Camera camera_from_text_file(const std::string& text, const std::string& path, const std::string& id) {
+  std::istringstream in(text);
+  std::vector<std::string> ids;
+  for (std::string line; std::getline(in, line);) {
+    line = trim(line);
+    if (line.empty() || line[0] == '#') continue;
+    const auto tokens = split_whitespace(line);
+    std::size_t model_index = 0;
+    if (!looks_like_line(tokens, &model_index)) {
+      throw std::invalid_argument(path + ": not a camera line (expected 'ID MODEL WIDTH HEIGHT PARAMS...'): '" + line + "'");
+    }
+    const std::string line_id = model_index == 1 ? tokens[0] : "";
+    if (id.empty() || line_id == id) return camera_from_tokens(tokens, model_index);
+    ids.push_back(line_id);
+  }
+  if (id.empty()) throw std::invalid_argument(path + ": contains no camera");
+  std::string known;
+  for (const auto& each : ids) known += " " + each;
+  throw std::invalid_argument(path + ": no camera with id " + id + " (ids:" + known + ")");
+}
+
+Camera camera_from_file(const std::string& path, const std::string& id) {
+  const std::string text = io::read_file(path);
+  if (trim(text).rfind('{', 0) == 0) {
+    if (!id.empty()) throw std::invalid_argument(path + ": a JSON camera file holds one camera; drop '#" + id + "'");
+    return camera_from_json(text, path);
+  }
+  return camera_from_text_file(text, path, id);
+}
+
+std::string format_double(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+}  // namespace
+
+Camera parse_camera(const std::string& spec) {
+  const std::string text = trim(spec);
+  if (text.empty()) {
+    throw std::invalid_argument("empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...', a JSON object or a file");
+  }
+  if (text[0] == '{') return camera_from_json(text, "camera spec");
+  const auto tokens = split_whitespace(text);
+  std::size_t model_index = 0;
+  if (tokens.size() > 1 && looks_like_line(tokens, &model_index)) return camera_from_tokens(tokens, model_index);
+
+  namespace fs = std::filesystem;
+  if (fs::is_regular_file(text)) return camera_from_file(text, "");
+  const auto separator = text.find_last_of("#:");
+  if (separator != std::string::npos && fs::is_regular_file(text.substr(0, separator))) {
+    const std::string id = text.substr(separator + 1);
+    if (!is_integer(id)) throw std::invalid_argument("camera spec '" + text + "': camera id must be an integer, got '" + id + "'");
+    return camera_from_file(text.substr(0, separator), id);
+  }
+  if (tokens.size() == 1 && is_model_name(tokens[0])) return camera_from_tokens(tokens, 0);
+  throw std::runtime_error("camera spec '" + text +
+                           "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON object, or an existing file");
+}
+
+std::string Camera::to_spec() const {
+  std::string spec = model_name_ + " " + std::to_string(width_) + " " + std::to_string(height_);
+  for (const double value : params_) spec += " " + format_double(value);
+  return spec;
+}
+
+std::string Camera::to_json() const {
+  nlohmann::json json = {{"model", model_name_}, {"width", width_}, {"height", height_}, {"params", params_}};
+  return json.dump();
+}
+
+}  // namespace omnipoint::camera

@@ -1,0 +1,43 @@
+#include "omnipoint/camera/distorted_pinhole.h"
+
+#include <ATen/ATen.h>
+
+#include "omnipoint/camera/solve.h"
+
+namespace omnipoint::camera {
+
+PlaneProjection project_to_plane(const at::Tensor& points) {
+  const auto z = points.select(-1, 2);
+  const auto valid = z > 0;
+  const auto safe_z = at::where(valid, z, at::ones_like(z)).unsqueeze(-1);
+  const auto normalised = points.narrow(-1, 0, 2) / safe_z;
+  const auto finite = valid & at::isfinite(normalised).all(-1);
+  return {at::where(finite.unsqueeze(-1), normalised, at::zeros_like(normalised)), finite};
+}
+
+void DistortedPinholeModel::check_params(const std::vector<double>& params, ImageSize) const {
+  check_focal_positive(*this, params);
+}
+
+Pixels DistortedPinholeModel::project(const at::Tensor& params, ImageSize,
+                                      const at::Tensor& points) const {
+  const auto plane = project_to_plane(points);
+  const auto params64 = params.to(at::kDouble);
+  const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
+  const auto valid = plane.valid & invertible_from_origin(g, plane.normalised.to(at::kDouble)).to(points.device());
+  const auto pixels = denormalise_pixels(focal_principal(*this, params), distort(params, plane.normalised));
+  return {at::where(valid.unsqueeze(-1), pixels, at::zeros_like(pixels)), valid};
+}
+
+Rays DistortedPinholeModel::unproject(const at::Tensor& params, ImageSize,
+                                      const at::Tensor& pixels) const {
+  const auto params64 = params.to(at::kDouble);
+  const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
+  const auto distorted = normalise_pixels(focal_principal(*this, params64), pixels.to(at::kDouble));
+  const auto solved = solve_2d(g, distorted, distorted);
+  const auto valid = solved.converged & invertible_from_origin(g, solved.solution);
+  const auto rays = rays_from_plane(solved.solution);
+  return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)).to(pixels.scalar_type()), valid};
+}
+
+}  // namespace omnipoint::camera
