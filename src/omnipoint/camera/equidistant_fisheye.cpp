@@ -180,11 +180,10 @@ Rays EquidistantFisheyeModel::unproject(const at::Tensor& params, ImageSize,
       const auto theta2 = equidistant.pow(2).sum(-1, true);
       equidistant = equidistant + (normalised - g(equidistant)) / radial_factor(theta2, k);
     }
-    const auto solved = solve_2d(g, normalised, equidistant);
+    const auto solved =
+        solve_2d(g, normalised, equidistant, limit * (1.0 + fold_slack(pixels.scalar_type())));
     equidistant = solved.solution;
-    valid = finite & solved.converged &
-            (equidistant.norm(2, -1) <= limit * (1.0 + fold_slack(pixels.scalar_type()))) &
-            locally_invertible(g, equidistant);
+    valid = finite & solved.converged & locally_invertible(g, equidistant);
   }
   const auto angle = equidistant.norm(2, -1);
   valid = valid & (angle < kPi);

@@ -39,7 +39,11 @@ at::Tensor tangential_distortion(const at::Tensor& xy, const at::Tensor& p1,
 }
 
 at::Tensor locally_invertible(const Map2D& g, const at::Tensor& u) {
-  return invertible_from_origin(g, u, /*samples=*/1);
+  const auto j = jacobian_2d(g, u, g(u));
+  const auto j00 = j.select(-1, 0).select(-1, 0);
+  const auto j11 = j.select(-1, 1).select(-1, 1);
+  const auto det = j00 * j11 - j.select(-1, 0).select(-1, 1) * j.select(-1, 1).select(-1, 0);
+  return (det > 0) & (j00 + j11 > 0);
 }
 
 }  // namespace omnipoint::camera

@@ -25,9 +25,8 @@ double fold_slack(at::ScalarType dtype);
 at::Tensor tangential_distortion(const at::Tensor& xy, const at::Tensor& p1, const at::Tensor& p2);
 
 // Whether the distortion g is locally invertible and orientation-preserving at u (det J > 0,
-// trace J > 0). The models check their radial polynomial's fold exactly and use this for
-// the small tangential / thin-prism terms on top, at a quarter of the cost of a check along
-// the whole segment from the centre (invertible_from_origin).
+// trace J > 0). The models check their radial polynomial's fold exactly (a circle) and use
+// this for the small tangential / thin-prism terms on top, which bend that fold slightly.
 at::Tensor locally_invertible(const Map2D& g, const at::Tensor& u);
 
 }  // namespace omnipoint::camera

@@ -70,7 +70,9 @@ class MeiModel final : public CameraModel {
         start = (plane - tangential_distortion(start, params64[7], params64[8])) /
                 (1.0 + params64[5] * r2 + params64[6] * r2 * r2);
       }
-      const auto solved = solve_2d(g, plane, start);
+      const double max_radius = std::sqrt(radial_fold_r2(host[5], host[6]) *
+                                          (1.0 + fold_slack(pixels.scalar_type())));
+      const auto solved = solve_2d(g, plane, start, max_radius);
       plane = solved.solution;
       valid = valid & solved.converged &
               in_distortion_range(g, host, plane, fold_slack(pixels.scalar_type()));
