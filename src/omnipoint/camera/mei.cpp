@@ -11,6 +11,7 @@
 // to the sphere follows.
 #include <ATen/ATen.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -70,7 +71,11 @@ class MeiModel final : public CameraModel {
         start = (plane - tangential_distortion(start, params64[7], params64[8])) /
                 (1.0 + params64[5] * r2 + params64[6] * r2 * r2);
       }
-      const double max_radius = std::sqrt(radial_fold_r2(host[5], host[6]) *
+      // Preimages lie inside the distortion's rising range and, for ξ > 1, inside the image
+      // of the sphere's fold, r² <= 1 / (ξ² − 1): the solve gives up on leaving that disc.
+      const double xi = host[4];
+      const double sphere_r2 = xi > 1 ? 1.0 / (xi * xi - 1.0) : std::numeric_limits<double>::infinity();
+      const double max_radius = std::sqrt(std::min(radial_fold_r2(host[5], host[6]), sphere_r2) *
                                           (1.0 + fold_slack(pixels.scalar_type())));
       const auto solved = solve_2d(g, plane, start, max_radius);
       plane = solved.solution;
