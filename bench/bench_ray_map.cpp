@@ -1,0 +1,28 @@
+// Ray-map generation (Camera::ray_map, float32 output) for typical camera sizes.
+#include <ATen/ATen.h>
+#include <benchmark/benchmark.h>
+
+#include <string>
+
+#include "omnipoint/camera/camera.h"
+
+namespace {
+
+void ray_map(benchmark::State& state, const std::string& spec) {
+  const auto camera = omnipoint::camera::parse_camera(spec);
+  for (auto _ : state) {
+    auto map = camera.ray_map(at::kFloat);
+    benchmark::DoNotOptimize(map.rays.data_ptr<float>());
+  }
+  state.SetItemsProcessed(state.iterations() * camera.width() * camera.height());
+}
+
+BENCHMARK_CAPTURE(ray_map, equirectangular_4096x2048, std::string("EQUIRECTANGULAR 4096 2048"))
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ray_map, opencv_1920x1080,
+                  std::string("OPENCV 1920 1080 1400 1402 960.5 540.5 -0.28 0.09 0.0008 -0.0005"))
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
