@@ -128,8 +128,9 @@ TEST_P(WideCameraTest, TheLimitSeparatesValidFromInvalid) {
   }
 }
 
-TEST_P(WideCameraTest, RayMapRoundTripsWithTheLimitInView) {
-  const auto camera = parse_camera(GetParam().spec);
+// Pixel -> ray -> pixel over a ray map whose corners lie beyond the lens's limit.
+void expect_ray_map_round_trip(const Camera& camera) {
+  SCOPED_TRACE(camera.to_spec());
   for (const auto dtype : {at::kFloat, at::kDouble}) {
     const auto map = camera.ray_map(dtype);
     EXPECT_FALSE(map.valid.all().item<bool>()) << "the corners lie beyond the limit";
@@ -140,6 +141,17 @@ TEST_P(WideCameraTest, RayMapRoundTripsWithTheLimitInView) {
     const auto error = (projected.pixels - camera.pixel_centres(dtype)).norm(2, -1);
     EXPECT_LE(max_where(map.valid, error), dtype == at::kFloat ? 1e-3 : 1e-6);
   }
+}
+
+TEST_P(WideCameraTest, RayMapRoundTripsWithTheLimitInView) {
+  expect_ray_map_round_trip(parse_camera(GetParam().spec));
+}
+
+TEST(KannalaBrandt, ThinPrismRayMapRoundTripsWithTheFoldInView) {
+  // The radial part folds at 125 degrees, the small tangential and prism terms bend the fold.
+  expect_ray_map_round_trip(parse_camera(
+      "THIN_PRISM_FISHEYE 640 480 183.7 184.2 319.3 241.6 0.0342 -0.0147 0.0004 -0.0003 0.0021 "
+      "-0.0003 0.0005 -0.0002"));
 }
 
 INSTANTIATE_TEST_SUITE_P(Fisheyes, WideCameraTest, ::testing::ValuesIn(wide_cameras()),

@@ -120,7 +120,7 @@ double EquidistantFisheyeModel::theta_max(const std::vector<double>& params) con
 
 at::Tensor EquidistantFisheyeModel::distort(const at::Tensor& params,
                                             const at::Tensor& equidistant) const {
-  const auto theta2 = (equidistant * equidistant).sum(-1);
+  const auto theta2 = squared_length(equidistant);
   return equidistant * radial_factor(theta2, radial_coefficients(params)).unsqueeze(-1);
 }
 
@@ -132,10 +132,10 @@ Pixels EquidistantFisheyeModel::project(const at::Tensor& params, ImageSize,
                                         const at::Tensor& points) const {
   const double limit = theta_max(host_values(params));
   const auto xy = points.narrow(-1, 0, 2);
-  const auto distance = points.norm(2, -1);
-  const auto theta = at::atan2(xy.norm(2, -1), points.select(-1, 2));
+  const auto distance = length(points);
+  const auto theta = at::atan2(length(xy), points.select(-1, 2));
   // θ = π is the backward axis, whose direction in the image is undefined.
-  auto valid = at::isfinite(points).all(-1) & (distance > 0) & (theta < kPi) &
+  auto valid = all_finite(points) & (distance > 0) & (theta < kPi) &
                (theta <= limit * (1.0 + fold_slack(points.scalar_type())));
   const auto safe_theta = at::where(valid, theta, at::zeros_like(theta));
   const auto safe_distance = at::where(valid, distance, at::ones_like(distance));
@@ -164,28 +164,31 @@ Rays EquidistantFisheyeModel::unproject(const at::Tensor& params, ImageSize,
   const auto k = radial_coefficients(params64);
   auto normalised =
       normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-  const auto finite = at::isfinite(normalised).all(-1);
+  const auto finite = all_finite(normalised);
   normalised = at::where(finite.unsqueeze(-1), normalised, at::zeros_like(normalised));
 
   // The radial inverse: exact for radial models, the starting point otherwise.
-  const auto radius = normalised.norm(2, -1);
+  const auto radius = length(normalised);
   const auto theta = solve_theta(radius.clamp_max(radius_max), k, limit);
   auto equidistant = normalised / radial_factor(theta * theta, k).unsqueeze(-1);
   auto valid = finite & (radius <= radius_max * (1.0 + fold_slack(pixels.scalar_type())));
   if (!radial_only()) {
     const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
     // The other terms are small: a few fixed-point steps with the radial part's scale as the
-    // Jacobian bring the start close, so that solve_2d only polishes.
+    // Jacobian bring the start close, so that solve_2d only polishes. The start stays inside
+    // the disc |e| < θ_max, where solve_2d searches.
+    const double max_radius = limit * (1.0 + fold_slack(pixels.scalar_type()));
     for (int step = 0; step < 4; ++step) {
-      const auto theta2 = equidistant.pow(2).sum(-1, true);
+      const auto theta2 = squared_length(equidistant).unsqueeze(-1);
       equidistant = equidistant + (normalised - g(equidistant)) / radial_factor(theta2, k);
+      const auto inside = (limit / length(equidistant).clamp_min(1e-300)).clamp_max(1.0);
+      equidistant = equidistant * inside.unsqueeze(-1);
     }
-    const auto solved =
-        solve_2d(g, normalised, equidistant, limit * (1.0 + fold_slack(pixels.scalar_type())));
+    const auto solved = solve_2d(g, normalised, equidistant, max_radius);
     equidistant = solved.solution;
     valid = finite & solved.converged & locally_invertible(g, equidistant);
   }
-  const auto angle = equidistant.norm(2, -1);
+  const auto angle = length(equidistant);
   valid = valid & (angle < kPi);
   const auto safe_angle = at::where(valid, angle, at::zeros_like(angle));
   // Length of e is θ: the ray is (e sin(θ) / θ, cos θ).

@@ -39,10 +39,10 @@ class MeiModel final : public CameraModel {
     const auto xi = params[4];
     const auto xy = points.narrow(-1, 0, 2);
     const auto z = points.select(-1, 2);
-    const auto d = points.norm(2, -1);
+    const auto d = length(points);
     const auto den = z + xi * d;
     const double w = unified_domain_weight(xi_value / (1.0 + xi_value));
-    auto valid = at::isfinite(points).all(-1) & (d > 0) & (den > 0) &
+    auto valid = all_finite(points) & (d > 0) & (den > 0) &
                  (z + w * d >= -fold_slack(points.scalar_type()) * d);
     auto plane = xy / at::where(valid, den, at::ones_like(den)).unsqueeze(-1);
     plane = at::where(valid.unsqueeze(-1), plane, at::zeros_like(plane));
@@ -60,14 +60,14 @@ class MeiModel final : public CameraModel {
     const auto host = host_values(params);
     const auto params64 = params.detach().to(at::kDouble);
     auto plane = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-    auto valid = at::isfinite(plane).all(-1);
+    auto valid = all_finite(plane);
     plane = at::where(valid.unsqueeze(-1), plane, at::zeros_like(plane));
     if (distorted(host)) {
       const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
       // OpenCV's fixed-point undistortion u <- (m - tangential(u)) / radial(u), to start near.
       auto start = plane;
       for (int step = 0; step < 3; ++step) {
-        const auto r2 = start.pow(2).sum(-1, true);
+        const auto r2 = squared_length(start).unsqueeze(-1);
         start = (plane - tangential_distortion(start, params64[7], params64[8])) /
                 (1.0 + params64[5] * r2 + params64[6] * r2 * r2);
       }
@@ -85,7 +85,7 @@ class MeiModel final : public CameraModel {
     const auto lifted =
         lift_to_shifted_sphere(at::cat({plane, at::ones_like(plane.narrow(-1, 0, 1))}, -1),
                                params64[4], fold_slack(pixels.scalar_type()));
-    valid = valid & lifted.valid & at::isfinite(lifted.rays).all(-1);
+    valid = valid & lifted.valid & all_finite(lifted.rays);
     return {at::where(valid.unsqueeze(-1), lifted.rays, at::zeros_like(lifted.rays))
                 .to(pixels.scalar_type()),
             valid};
@@ -114,12 +114,12 @@ class MeiModel final : public CameraModel {
   static at::Tensor in_distortion_range(const Map2D& g, const std::vector<double>& host,
                                         const at::Tensor& u, double slack) {
     const double fold = radial_fold_r2(host[5], host[6]);
-    return (u.pow(2).sum(-1) <= fold * (1.0 + slack)) & locally_invertible(g, u);
+    return (squared_length(u) <= fold * (1.0 + slack)) & locally_invertible(g, u);
   }
 
   // Undistorted plane coordinates (..., 2) -> distorted ones.
   static at::Tensor distort(const at::Tensor& params, const at::Tensor& plane) {
-    const auto r2 = plane.pow(2).sum(-1, true);
+    const auto r2 = squared_length(plane).unsqueeze(-1);
     return plane * (1.0 + params[5] * r2 + params[6] * r2 * r2) +
            tangential_distortion(plane, params[7], params[8]);
   }

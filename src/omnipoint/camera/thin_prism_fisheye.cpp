@@ -26,7 +26,7 @@ class ThinPrismFisheyeModel final : public EquidistantFisheyeModel {
   bool radial_only() const override { return false; }
 
   at::Tensor distort(const at::Tensor& params, const at::Tensor& e) const override {
-    const auto theta2 = (e * e).sum(-1, true);
+    const auto theta2 = squared_length(e).unsqueeze(-1);
     const auto prism = at::stack({params[10], params[11]}) * theta2;
     return EquidistantFisheyeModel::distort(params, e) +
            tangential_distortion(e, params[6], params[7]) + prism;
@@ -45,7 +45,7 @@ class RadTanThinPrismFisheyeModel final : public EquidistantFisheyeModel {
 
   at::Tensor distort(const at::Tensor& params, const at::Tensor& e) const override {
     const auto g = EquidistantFisheyeModel::distort(params, e);
-    const auto rho2 = (g * g).sum(-1, true);
+    const auto rho2 = squared_length(g).unsqueeze(-1);
     const auto prism = at::stack({params[12], params[14]}) * rho2 +
                        at::stack({params[13], params[15]}) * rho2 * rho2;
     return g + tangential_distortion(g, params[11], params[10]) + prism;

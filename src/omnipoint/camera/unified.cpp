@@ -31,7 +31,7 @@ PlaneDepth eucm_plane_depth(const at::Tensor& r2, double alpha, const at::Tensor
 Rays lift_to_shifted_sphere(const at::Tensor& m, const at::Tensor& xi, double slack) {
   // |λ m − (0, 0, ξ)| = 1 for λ > 0: λ = (ξ m_z + sqrt(m_z² + (1 − ξ²) r²)) / |m|².
   const auto mz = m.select(-1, 2);
-  const auto r2 = m.narrow(-1, 0, 2).pow(2).sum(-1);
+  const auto r2 = squared_length(m.narrow(-1, 0, 2));
   const auto discriminant = mz * mz + (1.0 - xi * xi) * r2;
   const auto norm2 = r2 + mz * mz;
   const auto valid = (discriminant >= -slack * norm2) & (norm2 > 0);
@@ -39,7 +39,7 @@ Rays lift_to_shifted_sphere(const at::Tensor& m, const at::Tensor& xi, double sl
                       at::where(valid, norm2, at::ones_like(norm2));
   const auto shift = at::stack({at::zeros_like(xi), at::zeros_like(xi), xi});
   auto rays = lambda.unsqueeze(-1) * m - shift;
-  rays = rays / rays.norm(2, -1, true).clamp_min(std::numeric_limits<double>::min());
+  rays = rays / length(rays).unsqueeze(-1).clamp_min(std::numeric_limits<double>::min());
   return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)), valid};
 }
 
@@ -82,10 +82,10 @@ class EnhancedUnifiedModel final : public CameraModel {
     const auto alpha = params[4];
     const auto xy = points.narrow(-1, 0, 2);
     const auto z = points.select(-1, 2);
-    const auto d = at::sqrt(beta(params) * xy.pow(2).sum(-1) + z * z);
+    const auto d = at::sqrt(beta(params) * squared_length(xy) + z * z);
     const auto den = alpha * d + (1.0 - alpha) * z;
-    const auto norm = points.norm(2, -1);
-    const auto valid = at::isfinite(points).all(-1) & (norm > 0) & (den > 0) &
+    const auto norm = length(points);
+    const auto valid = all_finite(points) & (norm > 0) & (den > 0) &
                        (z + unified_domain_weight(alpha_value) * d >=
                         -fold_slack(points.scalar_type()) * norm);
     return pixels_from_plane(*this, params, xy, den, valid);
@@ -95,13 +95,13 @@ class EnhancedUnifiedModel final : public CameraModel {
     const double alpha = host_values(params)[4];
     const auto params64 = params.detach().to(at::kDouble);
     auto m = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-    const auto finite = at::isfinite(m).all(-1);
+    const auto finite = all_finite(m);
     m = at::where(finite.unsqueeze(-1), m, at::zeros_like(m));
-    const auto depth = eucm_plane_depth(m.pow(2).sum(-1), alpha, beta(params64),
+    const auto depth = eucm_plane_depth(squared_length(m), alpha, beta(params64),
                                          fold_slack(pixels.scalar_type()));
     auto rays = at::cat({m, depth.mz.unsqueeze(-1)}, -1);
-    rays = rays / rays.norm(2, -1, true);
-    const auto valid = finite & depth.valid & at::isfinite(rays).all(-1);
+    rays = rays / length(rays).unsqueeze(-1);
+    const auto valid = finite & depth.valid & all_finite(rays);
     return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)).to(pixels.scalar_type()),
             valid};
   }
@@ -138,11 +138,11 @@ class DoubleSphereModel final : public CameraModel {
     const auto xi = params[4];
     const auto alpha = params[5];
     const auto xy = points.narrow(-1, 0, 2);
-    const auto d1 = points.norm(2, -1);
+    const auto d1 = length(points);
     const auto shifted_z = xi * d1 + points.select(-1, 2);
-    const auto d2 = at::sqrt(xy.pow(2).sum(-1) + shifted_z * shifted_z);
+    const auto d2 = at::sqrt(squared_length(xy) + shifted_z * shifted_z);
     const auto den = alpha * d2 + (1.0 - alpha) * shifted_z;
-    const auto valid = at::isfinite(points).all(-1) & (d1 > 0) & (den > 0) &
+    const auto valid = all_finite(points) & (d1 > 0) & (den > 0) &
                        (shifted_z + unified_domain_weight(alpha_value) * d2 >=
                         -fold_slack(points.scalar_type()) * d1);
     return pixels_from_plane(*this, params, xy, den, valid);
@@ -152,14 +152,14 @@ class DoubleSphereModel final : public CameraModel {
     const double alpha = host_values(params)[5];
     const auto params64 = params.detach().to(at::kDouble);
     auto m = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-    const auto finite = at::isfinite(m).all(-1);
+    const auto finite = all_finite(m);
     m = at::where(finite.unsqueeze(-1), m, at::zeros_like(m));
     const double slack = fold_slack(pixels.scalar_type());
-    const auto depth = eucm_plane_depth(m.pow(2).sum(-1), alpha, at::ones({}, m.options()), slack);
+    const auto depth = eucm_plane_depth(squared_length(m), alpha, at::ones({}, m.options()), slack);
     const auto lifted =
         lift_to_shifted_sphere(at::cat({m, depth.mz.unsqueeze(-1)}, -1), params64[4], slack);
     const auto valid =
-        finite & depth.valid & lifted.valid & at::isfinite(lifted.rays).all(-1);
+        finite & depth.valid & lifted.valid & all_finite(lifted.rays);
     return {at::where(valid.unsqueeze(-1), lifted.rays, at::zeros_like(lifted.rays))
                 .to(pixels.scalar_type()),
             valid};
