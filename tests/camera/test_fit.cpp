@@ -32,6 +32,10 @@ TEST(FitCamera, RecoversOpenCV) {
 
 TEST(FitCamera, RecoversFov) { expect_recovers("FOV 320 240 150 151 160 120 0.9", 1e-4, 1e-6); }
 
+TEST(FitCamera, RecoversFisheyeBeyond180Degrees) {
+  expect_recovers("OPENCV_FISHEYE 320 240 92.6 92.4 159.6 120.8 0.025 -0.011 0.0016 -0.0001", 1e-4, 1e-6);
+}
+
 TEST(FitCamera, FloatRayMapFitsToFloatPrecision) {
   const auto truth = parse_camera("PINHOLE 320 240 250.5 252.25 160.5 119.75");
   const auto map = truth.ray_map(at::kFloat);
