@@ -90,8 +90,8 @@ Solve2DResult solve_2d(const Map2D& g, const at::Tensor& target, const at::Tenso
 }
 
 double monotonic_radius(const Map2D& g) {
-  constexpr int kDirections = 32;
-  const double min_radius = 1e-3, max_radius = 1e3, ratio = 1.005;
+  constexpr int kDirections = 16;
+  const double min_radius = 1e-3, max_radius = 1e3, ratio = 1.01;
   const int count = static_cast<int>(std::ceil(std::log(max_radius / min_radius) / std::log(ratio))) + 1;
   const auto options = at::TensorOptions().dtype(at::kDouble);
   const auto radii = min_radius * at::pow(ratio, at::arange(count, options));  // (R)
