@@ -1,0 +1,75 @@
+#pragma once
+// Simulated sparse depth (training conditions and evaluation inputs): uniform samples of a
+// dense map, LiDAR-like scan lines, noise and outliers, and LiDAR point clouds rendered
+// into any camera with a z-buffer.
+//
+// Conventions: dense maps (..., H, W) of distances or depths (any floating dtype, any
+// device), masks (..., H, W) bool, leading dimensions are batch items. Randomness comes
+// from a CPU generator (e.g. at::make_generator<at::CPUGeneratorImpl>(seed)) drawn on the
+// CPU over the full map shape, so a seed gives the same samples on every device.
+#include <ATen/core/Generator.h>
+#include <ATen/core/Tensor.h>
+
+#include <cstdint>
+
+#include "omnipoint/camera/camera.h"
+
+namespace omnipoint::geometry {
+
+struct SparseDepth {
+  at::Tensor depth;  // (..., H, W) the sampled values; zero elsewhere
+  at::Tensor valid;  // (..., H, W) bool: the sample locations
+};
+
+// `count` pixels per item, uniformly without replacement among the valid pixels (all of
+// them where an item has fewer). The paper evaluates with 1,000.
+SparseDepth sample_uniform(const at::Tensor& dense, const at::Tensor& valid, std::int64_t count,
+                           at::Generator generator);
+// A share `ratio` in (0, 1] of each item's valid pixels (rounded, at least one where the
+// item has valid pixels), uniformly without replacement. The paper trains with 0.05–0.1 %.
+SparseDepth sample_uniform_ratio(const at::Tensor& dense, const at::Tensor& valid, double ratio,
+                                 at::Generator generator);
+
+// A rotating LiDAR at the camera centre, spinning about the camera's vertical axis (y):
+// `beams` scan lines at elevations evenly spaced over [min, max] (up positive) and
+// `azimuth_steps` firings per revolution. Defaults resemble a 64-beam automotive sensor.
+struct LidarPattern {
+  std::int64_t beams = 64;
+  double min_elevation_deg = -24.9;
+  double max_elevation_deg = 2.0;
+  std::int64_t azimuth_steps = 2000;
+};
+// The samples a LiDAR of `pattern` would return, read from the dense map: for every beam
+// direction, the pixel whose ray (from `rays` (H, W, 3) or (..., H, W, 3), unit, zero where
+// invalid — any camera model) is angularly nearest, kept when the direction falls inside
+// that pixel's footprint and the pixel is valid. Vectorised (scatter_reduce over beams).
+SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const at::Tensor& rays,
+                         const LidarPattern& pattern = {});
+
+struct DepthNoise {
+  double relative_sigma = 0.0;      // value · exp(σ·n), n ~ N(0, 1): multiplicative noise
+  double outlier_ratio = 0.0;       // probability that a sample is an outlier
+  double outlier_max_factor = 3.0;  // outliers: value · f, log f ~ U(−log F, log F)
+};
+// Perturbs the sampled values (locations unchanged).
+SparseDepth add_noise(const SparseDepth& sparse, const DepthNoise& noise, at::Generator generator);
+
+enum class SparseValue { Distance, PlanarDepth };
+
+// Z-buffer rasterisation of projected points: pixels (..., N, 2) (x, y in the pixel
+// convention of DESIGN.md), their distances (..., N) from the camera, the values to store
+// (..., N) and a validity (..., N). Each image pixel [i, i+1) x [j, j+1) keeps the value of
+// its nearest point (ties: the smallest value). Points outside the image, invalid or with
+// non-finite or non-positive distance are dropped. Returns (..., height, width).
+SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distance,
+                              const at::Tensor& value, const at::Tensor& valid, std::int64_t width,
+                              std::int64_t height);
+
+// A point cloud in the camera frame (..., N, 3) (e.g. LiDAR after its extrinsics), with an
+// optional validity (..., N) for padded batches, as a sparse map through any camera model:
+// Camera::project, then rasterize_nearest. Stores distances (default) or planar depth z.
+SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Camera& camera,
+                                     const at::Tensor& valid = {},
+                                     SparseValue value = SparseValue::Distance);
+
+}  // namespace omnipoint::geometry

@@ -1,0 +1,190 @@
+#include <ATen/ATen.h>
+#include <ATen/CPUGeneratorImpl.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/geometry/sparse_sampling.h"
+
+using namespace omnipoint::geometry;
+using omnipoint::camera::make_camera;
+
+namespace {
+
+at::Generator seeded(uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
+
+struct Dense {
+  at::Tensor depth, valid;
+};
+
+Dense random_dense(int64_t b, int64_t h, int64_t w, double valid_share, uint64_t seed) {
+  auto g = seeded(seed);
+  return {at::rand({b, h, w}, g, at::kDouble) * 20 + 0.5, at::rand({b, h, w}, g, at::kDouble) < valid_share};
+}
+
+}  // namespace
+
+TEST(SparseSampling, UniformCountIsExactAndDeterministic) {
+  auto dense = random_dense(3, 60, 80, 0.7, 1);
+  dense.valid[2].zero_();
+  dense.valid[2][5].slice(0, 0, 10).fill_(true);  // only 10 valid pixels in item 2
+  auto a = sample_uniform(dense.depth, dense.valid, 1000, seeded(42));
+  EXPECT_EQ(a.valid[0].sum().item<int64_t>(), 1000);
+  EXPECT_EQ(a.valid[1].sum().item<int64_t>(), 1000);
+  EXPECT_EQ(a.valid[2].sum().item<int64_t>(), 10);
+  EXPECT_FALSE(a.valid.logical_and(dense.valid.logical_not()).any().item<bool>());
+  EXPECT_TRUE(at::equal(a.depth, at::where(a.valid, dense.depth, at::zeros_like(dense.depth))));
+  auto b = sample_uniform(dense.depth, dense.valid, 1000, seeded(42));
+  EXPECT_TRUE(at::equal(a.valid, b.valid));
+  auto c = sample_uniform(dense.depth, dense.valid, 1000, seeded(43));
+  EXPECT_FALSE(at::equal(a.valid, c.valid));
+  EXPECT_EQ(sample_uniform(dense.depth, dense.valid, 0, seeded(1)).valid.sum().item<int64_t>(), 0);
+  EXPECT_THROW(sample_uniform(dense.depth, dense.valid, -1, seeded(1)), std::invalid_argument);
+  EXPECT_THROW(sample_uniform(dense.depth, dense.valid.slice(0, 0, 1), 5, seeded(1)), std::invalid_argument);
+}
+
+TEST(SparseSampling, UniformRatio) {
+  auto dense = random_dense(2, 100, 200, 0.5, 2);
+  for (double ratio : {0.0005, 0.001, 0.3}) {
+    auto s = sample_uniform_ratio(dense.depth, dense.valid, ratio, seeded(7));
+    for (int64_t i = 0; i < 2; ++i) {
+      const double available = dense.valid[i].sum().item<double>();
+      EXPECT_EQ(s.valid[i].sum().item<int64_t>(), std::max<int64_t>(1, std::llround(available * ratio)));
+    }
+  }
+  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 0.0, seeded(1)), std::invalid_argument);
+  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 1.5, seeded(1)), std::invalid_argument);
+  // Items without valid pixels give no samples.
+  auto none = sample_uniform_ratio(dense.depth, at::zeros_like(dense.valid), 0.01, seeded(1));
+  EXPECT_FALSE(none.valid.any().item<bool>());
+}
+
+TEST(SparseSampling, UniformIsUniform) {
+  // 4,000 items of 4 valid pixels (of 6), one sample each: every valid pixel ~1,000 times.
+  auto depth = at::ones({4000, 2, 3});
+  auto valid = at::tensor({1, 1, 0, 1, 0, 1}).to(at::kBool).view({1, 2, 3}).expand({4000, 2, 3}).contiguous();
+  auto s = sample_uniform(depth, valid, 1, seeded(9));
+  auto hits = s.valid.sum(0).to(at::kDouble);
+  EXPECT_EQ(hits[0][2].item<double>(), 0);
+  EXPECT_EQ(hits[1][1].item<double>(), 0);
+  for (auto [r, c] : {std::pair{0, 0}, {0, 1}, {1, 0}, {1, 2}}) {
+    EXPECT_NEAR(hits[r][c].item<double>(), 1000, 5 * std::sqrt(1000 * 0.75)) << r << "," << c;
+  }
+}
+
+TEST(SparseSampling, NoiseAndOutliers) {
+  auto dense = random_dense(1, 200, 200, 1.0, 3);
+  auto s = sample_uniform(dense.depth, dense.valid, 20000, seeded(4));
+  auto noisy = add_noise(s, DepthNoise{0.05, 0.0, 3.0}, seeded(5));
+  EXPECT_TRUE(at::equal(noisy.valid, s.valid));
+  auto log_ratio = (noisy.depth.masked_select(s.valid) / s.depth.masked_select(s.valid)).log();
+  EXPECT_NEAR(log_ratio.std().item<double>(), 0.05, 0.002);
+  EXPECT_NEAR(log_ratio.mean().item<double>(), 0.0, 0.002);
+  EXPECT_TRUE(noisy.depth.masked_select(s.valid.logical_not()).eq(0).all().item<bool>());
+  auto outliers = add_noise(s, DepthNoise{0.0, 0.1, 4.0}, seeded(6));
+  auto ratio = outliers.depth.masked_select(s.valid) / s.depth.masked_select(s.valid);
+  const double share = (ratio - 1).abs().gt(1e-12).to(at::kDouble).mean().item<double>();
+  EXPECT_NEAR(share, 0.1, 0.01);
+  EXPECT_LE(ratio.max().item<double>(), 4.0 + 1e-9);
+  EXPECT_GE(ratio.min().item<double>(), 0.25 - 1e-9);
+  EXPECT_TRUE(at::equal(add_noise(s, DepthNoise{0.05, 0.1, 4.0}, seeded(8)).depth,
+                        add_noise(s, DepthNoise{0.05, 0.1, 4.0}, seeded(8)).depth));
+  EXPECT_THROW(add_noise(s, DepthNoise{-1.0, 0.0, 3.0}, seeded(1)), std::invalid_argument);
+}
+
+TEST(SparseSampling, LidarScanLinesOnAPinholeCamera) {
+  // A 90° pinhole camera; 16 beams over [-15°, 15°], 1° azimuth steps. Every beam direction
+  // inside the image must give a sample on the pixel it projects to (within one pixel: the
+  // angularly nearest pixel centre and the containing pixel can differ at pixel borders).
+  const int64_t w = 320, h = 240;
+  const double f = w / 2.0;
+  auto camera = make_camera("PINHOLE", w, h, {f, f, w / 2.0, h / 2.0});
+  auto rays = camera.ray_map(at::kDouble);
+  auto depth = at::full({h, w}, 5.0, at::kDouble);
+  LidarPattern pattern{16, -15.0, 15.0, 360};
+  auto s = sample_lidar(depth, rays.valid, rays.rays, pattern);
+  std::vector<std::pair<double, double>> expected;
+  for (int64_t k = 0; k < 16; ++k) {
+    const double el = (-15.0 + 2.0 * k) * M_PI / 180;
+    for (int64_t j = -60; j <= 60; ++j) {
+      const double az = j * M_PI / 180;
+      const double x = std::cos(el) * std::sin(az), y = -std::sin(el), z = std::cos(el) * std::cos(az);
+      const double u = f * x / z + w / 2.0, v = f * y / z + h / 2.0;
+      if (u >= 1 && u < w - 1 && v >= 1 && v < h - 1) expected.push_back({u, v});
+    }
+  }
+  ASSERT_GT(expected.size(), 1000u);
+  auto hits = s.valid.nonzero();  // (M, 2) rows, cols
+  EXPECT_NEAR(static_cast<double>(hits.size(0)), static_cast<double>(expected.size()), 2 * 16);
+  auto hit_rows = hits.select(1, 0).to(at::kDouble) + 0.5, hit_cols = hits.select(1, 1).to(at::kDouble) + 0.5;
+  int64_t matched = 0;
+  for (const auto& [u, v] : expected) {
+    auto d = at::maximum((hit_cols - u).abs(), (hit_rows - v).abs());
+    matched += d.min().item<double>() <= 1.0;
+  }
+  EXPECT_EQ(matched, static_cast<int64_t>(expected.size()));
+  // Samples lie on the scan lines: elevation within half a pixel (≈ 0.36°) of a beam.
+  auto sampled_rays = rays.rays.index({hits.select(1, 0), hits.select(1, 1)});
+  auto el_deg = at::asin(-sampled_rays.select(1, 1)) * (180 / M_PI);
+  auto off = (el_deg + 15.0) / 2.0;
+  EXPECT_LT(((off - off.round()) * 2.0).abs().max().item<double>(), 0.4);
+  EXPECT_TRUE(s.depth.masked_select(s.valid).eq(5.0).all().item<bool>());
+  // Batched maps with shared rays: per-item validity is respected.
+  auto batch_valid = rays.valid.unsqueeze(0).repeat({2, 1, 1});
+  batch_valid[1].slice(1, 0, w / 2).fill_(false);
+  auto batched = sample_lidar(depth.unsqueeze(0).expand({2, h, w}), batch_valid, rays.rays, pattern);
+  EXPECT_TRUE(at::equal(batched.valid[0], s.valid));
+  EXPECT_FALSE(batched.valid[1].slice(1, 0, w / 2).any().item<bool>());
+  EXPECT_TRUE(at::equal(batched.valid[1].slice(1, w / 2), s.valid.slice(1, w / 2)));
+  EXPECT_THROW(sample_lidar(depth, rays.valid, rays.rays, LidarPattern{0, -1.0, 1.0, 10}), std::invalid_argument);
+}
+
+TEST(SparseSampling, PointsThroughACameraLandOnTheirPixels) {
+  const int64_t w = 64, h = 48;
+  auto camera = make_camera("PINHOLE", w, h, {50.0, 55.0, 31.0, 25.0});
+  auto g = seeded(10);
+  auto points = at::rand({300, 3}, g, at::kDouble) * at::tensor({8.0, 6.0, 10.0}, at::kDouble) -
+                at::tensor({4.0, 3.0, 2.0}, at::kDouble);  // some behind the camera (z < 0)
+  auto s = sparse_depth_from_points(points, camera);
+  int64_t landed = 0;
+  auto expected = at::zeros({h, w}, at::kDouble);
+  for (int64_t i = 0; i < 300; ++i) {
+    const double x = points[i][0].item<double>(), y = points[i][1].item<double>(), z = points[i][2].item<double>();
+    if (z <= 0) continue;
+    const double u = 50.0 * x / z + 31.0, v = 55.0 * y / z + 25.0;
+    if (u < 0 || u >= w || v < 0 || v >= h) continue;
+    const double d = std::sqrt(x * x + y * y + z * z);
+    auto cell = expected[static_cast<int64_t>(v)][static_cast<int64_t>(u)];
+    if (cell.item<double>() == 0 || d < cell.item<double>()) cell.fill_(d);
+    ++landed;
+  }
+  ASSERT_GT(landed, 20);
+  EXPECT_TRUE(at::equal(s.valid, expected > 0));
+  EXPECT_TRUE(at::allclose(s.depth, expected, 1e-12, 1e-12));
+  auto planar = sparse_depth_from_points(points, camera, {}, SparseValue::PlanarDepth);
+  EXPECT_TRUE(at::equal(planar.valid, s.valid));
+  EXPECT_TRUE((planar.depth <= s.depth + 1e-12).all().item<bool>());
+}
+
+TEST(SparseSampling, ZBufferKeepsTheNearest) {
+  auto camera = make_camera("PINHOLE", 10, 10, {10.0, 10.0, 5.0, 5.0});
+  // Three points on one ray, far first; a padded batch where the nearest is masked out.
+  auto ray = at::tensor({0.1, 0.05, 1.0}, at::kFloat);
+  auto points = at::stack({ray * 9.0f, ray * 3.0f, ray * 6.0f}).unsqueeze(0).repeat({2, 1, 1});
+  auto valid = at::ones({2, 3}, at::kBool);
+  valid[1][1] = false;
+  auto s = sparse_depth_from_points(points, camera, valid);
+  ASSERT_EQ(s.depth.sizes(), (at::IntArrayRef{2, 10, 10}));
+  EXPECT_EQ(s.valid.sum().item<int64_t>(), 2);
+  // (x, y) = (10·0.1 + 5, 10·0.05 + 5) = (6, 5.5): pixel column 6, row 5.
+  const float norm = ray.norm().item<float>();
+  EXPECT_FLOAT_EQ(s.depth[0][5][6].item<float>(), 3.0f * norm);
+  EXPECT_FLOAT_EQ(s.depth[1][5][6].item<float>(), 6.0f * norm);
+  // rasterize_nearest directly: ties keep the smallest value; off-image pixels are dropped.
+  auto pixels = at::tensor({0.5, 0.5, 0.7, 0.2, 2.0, 0.5, -0.1, 0.5}, at::kDouble).view({4, 2});
+  auto r = rasterize_nearest(pixels, at::tensor({2.0, 2.0, 1.0, 1.0}, at::kDouble),
+                             at::tensor({7.0, 4.0, 1.0, 1.0}, at::kDouble), at::ones({4}, at::kBool), 2, 1);
+  EXPECT_TRUE(at::equal(r.depth, at::tensor({4.0, 0.0}, at::kDouble).view({1, 2})));
+  EXPECT_TRUE(at::equal(r.valid, at::tensor({1, 0}).to(at::kBool).view({1, 2})));
+}
