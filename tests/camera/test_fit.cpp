@@ -44,6 +44,10 @@ TEST(FitCamera, RecoversUnifiedModels) {
   expect_recovers("MEI 320 240 210.3 209.6 160.7 119.4 1.35 -0.12 0.05 0.0006 -0.0004", 1e-4, 1e-6);
 }
 
+TEST(FitCamera, RecoversCroppedPanorama) {
+  expect_recovers("EQUIRECTANGULAR 128 64 -1.2 0.9 -0.6 0.7", 0, 1e-8);
+}
+
 TEST(FitCamera, FloatRayMapFitsToFloatPrecision) {
   const auto truth = parse_camera("PINHOLE 320 240 250.5 252.25 160.5 119.75");
   const auto map = truth.ray_map(at::kFloat);
