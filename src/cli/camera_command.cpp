@@ -11,13 +11,8 @@
 #include "cli/commands.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/camera_info.h"
-#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
-
-#ifdef OMNIPOINT_WITH_OPENCV
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#endif
 
 namespace omnipoint::cli {
 namespace {
@@ -48,22 +43,9 @@ struct CameraOptions {
   }
 };
 
-// Rays (H, W, 3) as an RGB picture: each component from [-1, 1] to [0, 255]; invalid black.
+// Rays (H, W, 3) as an RGB picture: each component from [-1, 1] to [0, 1]; invalid black.
 void write_ray_png(const std::string& path, const camera::Rays& map) {
-#ifdef OMNIPOINT_WITH_OPENCV
-  const auto rgb = ((map.rays + 1) * 127.5).round().clamp(0, 255).to(at::kByte) *
-                   map.valid.unsqueeze(-1).to(at::kByte);
-  const auto bgr = rgb.flip({-1}).contiguous();
-  const cv::Mat image(static_cast<int>(bgr.size(0)), static_cast<int>(bgr.size(1)), CV_8UC3, bgr.data_ptr());
-  std::vector<uchar> encoded;
-  if (!cv::imencode(".png", image, encoded)) throw std::runtime_error(path + ": PNG encoding failed");
-  io::write_file_atomically(path, [&](std::ostream& out) {
-    out.write(reinterpret_cast<const char*>(encoded.data()), static_cast<std::streamsize>(encoded.size()));
-  });
-#else
-  (void)map;
-  throw std::invalid_argument(path + ": this build has no image output (built without OpenCV)");
-#endif
+  io::write_image_png(path, (map.rays + 1) * 0.5 * map.valid.unsqueeze(-1));
 }
 
 void add_rays_command(CLI::App& parent) {
