@@ -5,9 +5,7 @@
 
 #include <ATen/ATen.h>
 
-#include <cmath>
 #include <limits>
-
 
 namespace omnipoint::camera {
 
