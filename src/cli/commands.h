@@ -8,4 +8,5 @@ class App;
 
 namespace omnipoint::cli {
 
+void add_synth_command(CLI::App& app);
 }  // namespace omnipoint::cli
