@@ -89,8 +89,18 @@ Scene make_indoor_scene(std::uint64_t seed) {
   // The camera first, so that furniture keeps clear of it.
   const double cx = rng.uniform(-hx + 0.6, hx - 0.6), cy = rng.uniform(-hy + 0.6, hy - 0.6);
   const double cz = std::min(rng.uniform(1.0, 1.8), height - 0.4);
-  scene.pose = make_pose({cx, cy, cz}, rng.uniform(-kPi, kPi), rng.uniform(-0.3, 0.25),
-                         rng.uniform(-0.08, 0.08));
+  // Look towards a random point of the room at least 1.5 m away (not into a nearby wall).
+  double tx = -cx, ty = -cy;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    const double x = rng.uniform(-hx, hx), y = rng.uniform(-hy, hy);
+    if (std::hypot(x - cx, y - cy) >= 1.5) {
+      tx = x;
+      ty = y;
+      break;
+    }
+  }
+  scene.pose = make_pose({cx, cy, cz}, std::atan2(-(tx - cx), ty - cy) + rng.uniform(-0.3, 0.3),
+                         rng.uniform(-0.3, 0.2), rng.uniform(-0.08, 0.08));
   std::vector<Footprint> taken{{cx, cy, 0.8}};
 
   const int items = rng.integer(4, 9);
