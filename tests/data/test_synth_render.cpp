@@ -134,6 +134,22 @@ TEST(SynthRender, CameraInsideAVerticalCylinderSeesItsWallAndCaps) {
   EXPECT_LT((out.distance - expected).abs().max().item<double>(), 1e-9);
 }
 
+TEST(SynthRender, HitsBeyondTheMaximumDistanceAreSky) {
+  auto scene = bare_scene({0, 0, 0}, 0.0, 0.0, 0.0);
+  Primitive plane;  // 2 km ahead
+  plane.shape = Shape::kPlane;
+  plane.center = {0, 2000, 0};
+  plane.axis = {0, -1, 0};
+  scene.primitives.push_back(plane);
+  const auto rays = camera::parse_camera("PINHOLE 8 6 10 10 4 3").ray_map(at::kDouble);
+  EXPECT_FALSE(render_scene(scene, rays.rays, rays.valid).mask.any().item<bool>());
+  RenderOptions far;
+  far.max_distance = 5000;
+  const auto out = render_scene(scene, rays.rays, rays.valid, far);
+  EXPECT_TRUE(out.mask.all().item<bool>());
+  EXPECT_LT((out.depth - 2000).abs().max().item<double>(), 1e-9);
+}
+
 TEST(SynthRender, RejectsBadInputs) {
   auto scene = bare_scene({0, 0, 0});
   const auto rays = at::zeros({4, 4, 3});

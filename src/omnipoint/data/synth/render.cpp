@@ -119,7 +119,7 @@ Shaded shade(const Scene& scene, const PackedScene& ps, const at::Tensor& rays,
   const auto d = rotate(scene.pose.rotation, cam, false);
   const auto origin = vec(scene.pose.position, opt).unsqueeze(0);
   const auto hit = nearest_hit(ps, primary_candidates(ps, scene.pose.position, d), origin, d, 1e-6);
-  const auto mask = at::isfinite(hit.t) & valid;
+  const auto mask = (hit.t <= options.max_distance) & valid;
 
   // Surfaces, textures and lighting only for the rays that hit something, compacted.
   const auto idx = at::nonzero(mask).squeeze(-1);
@@ -192,8 +192,8 @@ Render render_scene(const Scene& scene, const at::Tensor& rays, const at::Tensor
     throw std::invalid_argument("render_scene: rays must be a floating (H, W, 3) tensor");
   if (valid.sizes() != rays.sizes().slice(0, 2) || valid.scalar_type() != at::kBool)
     throw std::invalid_argument("render_scene: valid must be a bool (H, W) tensor");
-  if (scene.materials.empty() || options.tile_size <= 0)
-    throw std::invalid_argument("render_scene: the scene has no materials or tile size <= 0");
+  if (scene.materials.empty() || options.tile_size <= 0 || !(options.max_distance > 0))
+    throw std::invalid_argument("render_scene: the scene has no materials, or tile size or max distance <= 0");
   const int64_t height = rays.size(0), width = rays.size(1);
   const auto ps = pack_scene(scene, rays.options());
   auto rgb = at::empty({height, width, 3}, rays.options());

@@ -19,10 +19,6 @@ Primitive& add_cylinder(Scene& scene, int material, const Vec3& center, const Ve
                         double radius, double half_length);
 Primitive& add_plane(Scene& scene, int material, const Vec3& point, const Vec3& normal);
 
-}  // namespace omnipoint::data::synth
-
-namespace omnipoint::data::synth {
-
 // Interior materials drawn from palettes: a floor, walls and a ceiling.
 struct RoomMaterials {
   int floor, walls, ceiling;
