@@ -10,11 +10,15 @@ int main(int argc, char** argv) {
   CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
+  omnipoint::cli::add_camera_command(app);
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // Bad arguments: one line on stderr, like every other error (DESIGN.md).
+    std::cerr << "omnipoint: error: " << e.what() << " (see --help)\n";
+    return e.get_exit_code();
   } catch (const std::exception& e) {
     std::cerr << "omnipoint: error: " << e.what() << "\n";
     return 1;
