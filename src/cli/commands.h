@@ -9,5 +9,6 @@ class App;
 namespace omnipoint::cli {
 
 void add_camera_command(CLI::App& app);
+void add_synth_command(CLI::App& app);
 
 }  // namespace omnipoint::cli
