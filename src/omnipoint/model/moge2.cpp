@@ -20,9 +20,7 @@ namespace F = torch::nn::functional;
 // ---------------------------------------------------------------------------------------------
 // Configuration
 
-namespace {
-
-MoGe2EncoderConfig encoder_config_from_json(const nlohmann::json& json) {
+MoGe2EncoderConfig MoGe2EncoderConfig::from_json(const nlohmann::json& json) {
   if (!json.is_object()) throw std::invalid_argument("MoGe-2 config: 'encoder' must be an object");
   MoGe2EncoderConfig config;
   config.backbone = json.at("backbone").get<std::string>();
@@ -56,13 +54,11 @@ MoGe2EncoderConfig encoder_config_from_json(const nlohmann::json& json) {
   return config;
 }
 
-}  // namespace
-
 MoGe2Config MoGe2Config::from_json(const nlohmann::json& json) {
   if (!json.is_object()) throw std::invalid_argument("MoGe-2 config must be a JSON object");
   MoGe2Config config;
   try {
-    config.encoder = encoder_config_from_json(json.at("encoder"));
+    config.encoder = MoGe2EncoderConfig::from_json(json.at("encoder"));
     config.neck = ConvStackConfig::from_json(json.at("neck"), "MoGe-2 neck");
     for (auto [key, head] : {std::pair{"points_head", &config.points_head}, std::pair{"mask_head", &config.mask_head},
                              std::pair{"normal_head", &config.normal_head}}) {
@@ -136,6 +132,37 @@ at::Tensor remap_points(const at::Tensor& raw, const std::string& remap) {
   throw std::invalid_argument("unknown point remap '" + remap + "'");
 }
 
+std::vector<at::Tensor> neck_inputs(const at::Tensor& features, const TokenGrid& grid,
+                                    double aspect_ratio, int64_t num_levels) {
+  const int64_t batch = features.size(0);
+  std::vector<at::Tensor> inputs;
+  for (int64_t level = 0; level < num_levels; ++level) {
+    const at::Tensor uv = geometry::normalized_view_plane_uv(grid.cols << level, grid.rows << level,
+                                                             aspect_ratio, features.options())
+                              .permute({2, 0, 1})
+                              .unsqueeze(0)
+                              .expand({batch, 2, grid.rows << level, grid.cols << level});
+    inputs.push_back(level == 0 ? at::cat({features, uv}, 1) : uv);
+  }
+  return inputs;
+}
+
+at::Tensor resize_to_image(const at::Tensor& map, int64_t height, int64_t width) {
+  return F::interpolate(map, F::InterpolateFuncOptions()
+                                 .size(std::vector<int64_t>{height, width})
+                                 .mode(torch::kBilinear)
+                                 .align_corners(false));
+}
+
+torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims) {
+  torch::nn::Sequential mlp;
+  for (size_t i = 0; i + 1 < dims.size(); ++i) {
+    if (i > 0) mlp->push_back(torch::nn::ReLU());
+    mlp->push_back(torch::nn::Linear(dims[i], dims[i + 1]));
+  }
+  return mlp;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Encoder
 
@@ -188,34 +215,16 @@ MoGe2ModelImpl::MoGe2ModelImpl(const MoGe2Config& config) : config_(config) {
   if (config_.mask_head) mask_head = register_module("mask_head", ConvStack(*config_.mask_head));
   if (config_.normal_head) normal_head = register_module("normal_head", ConvStack(*config_.normal_head));
   const auto& dims = config_.scale_head_dims;
-  if (!dims.empty()) {
-    scale_head = register_module("scale_head", torch::nn::Sequential());
-    for (size_t i = 0; i + 1 < dims.size(); ++i) {
-      if (i > 0) scale_head->push_back(torch::nn::ReLU());
-      scale_head->push_back(torch::nn::Linear(dims[i], dims[i + 1]));
-    }
-  }
+  if (!dims.empty()) scale_head = register_module("scale_head", scale_mlp(dims));
 }
 
 MoGe2RawOutput MoGe2ModelImpl::forward_raw(const at::Tensor& image, const TokenGrid& grid) {
   if (image.dim() != 4 || image.size(1) != 3)
     throw std::invalid_argument("MoGe-2 input must be (B,3,H,W), got " + c10::str(image.sizes()));
-  const int64_t batch = image.size(0);
   const double aspect = static_cast<double>(image.size(3)) / static_cast<double>(image.size(2));
   const EncoderOutput encoded = encoder->forward(image, grid);
-
-  // Neck inputs: the view-plane uv map of the image at every level (2^l times the grid), with
-  // the encoder features in front of it at level 0.
-  std::vector<at::Tensor> neck_inputs;
-  for (int64_t level = 0; level < config_.neck.num_levels(); ++level) {
-    const at::Tensor uv = geometry::normalized_view_plane_uv(grid.cols << level, grid.rows << level, aspect,
-                                                             encoded.features.options())
-                              .permute({2, 0, 1})
-                              .unsqueeze(0)
-                              .expand({batch, 2, grid.rows << level, grid.cols << level});
-    neck_inputs.push_back(level == 0 ? at::cat({encoded.features, uv}, 1) : uv);
-  }
-  const std::vector<at::Tensor> neck_levels = neck->forward(neck_inputs);
+  const std::vector<at::Tensor> neck_levels =
+      neck->forward(neck_inputs(encoded.features, grid, aspect, config_.neck.num_levels()));
 
   MoGe2RawOutput raw;
   raw.projected = encoded.features;
@@ -232,13 +241,8 @@ MoGe2Output MoGe2ModelImpl::forward(const at::Tensor& image, int64_t num_tokens)
   const int64_t height = image.size(2), width = image.size(3);
   const MoGe2RawOutput raw = forward_raw(image, token_grid(height, width, num_tokens));
 
-  // Resize the raw maps first, remap after: interpolating exp(z) is not exp(interpolated z).
-  const auto to_image_size = [&](const at::Tensor& map) {
-    return F::interpolate(map, F::InterpolateFuncOptions()
-                                   .size(std::vector<int64_t>{height, width})
-                                   .mode(torch::kBilinear)
-                                   .align_corners(false));
-  };
+  // Resize the raw maps first, remap after.
+  const auto to_image_size = [&](const at::Tensor& map) { return resize_to_image(map, height, width); };
   MoGe2Output output;
   output.points = remap_points(to_image_size(raw.points).permute({0, 2, 3, 1}), config_.remap_output);
   if (raw.mask.defined()) output.mask = at::sigmoid(to_image_size(raw.mask).squeeze(1));

@@ -36,6 +36,9 @@ struct MoGe2EncoderConfig {
   DinoV2Config backbone_config;            // resolved from the name, or MoGe's backbone_config
   std::vector<int64_t> intermediate_layers;  // block indices (an int n in JSON: the last n)
   int64_t dim_out = 1024;
+
+  // MoGe-2's "encoder" section (also OmniPoint's).
+  static MoGe2EncoderConfig from_json(const nlohmann::json& json);
 };
 
 struct MoGe2Config {
@@ -62,6 +65,17 @@ TokenGrid token_grid(int64_t height, int64_t width, int64_t num_tokens);
 // Remaps a raw (…,3) point map: "exp" → (a·e^c, b·e^c, e^c); "sinh" → sinh(·);
 // "sinh_exp" → (sinh a, sinh b, e^c); "linear" → unchanged.
 at::Tensor remap_points(const at::Tensor& raw, const std::string& remap);
+
+// Shared by MoGe-2 and OmniPoint (model/omnipoint_model.h):
+// the neck's inputs (README §1.4–1.5): [features, uv] at level 0, the uv map at levels ≥ 1,
+// the uv map at 2^l times the grid for an image of aspect W/H `aspect_ratio`;
+std::vector<at::Tensor> neck_inputs(const at::Tensor& features, const TokenGrid& grid,
+                                    double aspect_ratio, int64_t num_levels);
+// a raw (B,C,h,w) head map resized to the image size (bilinear, align_corners false, no
+// antialias), before any activation: interpolating exp(z) is not exp(interpolated z);
+at::Tensor resize_to_image(const at::Tensor& map, int64_t height, int64_t width);
+// the scale head: Linear layers over `dims` with a ReLU between consecutive ones.
+torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims);
 
 struct EncoderOutput {
   at::Tensor features;     // (B, dim_out, rows, cols): the projected intermediate layers, summed
