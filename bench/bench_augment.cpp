@@ -45,12 +45,12 @@ void run_p2a(benchmark::State& state, const camera::Camera& target) {
 }
 
 void BM_P2A_Panorama2048(benchmark::State& state) { run_p2a(state, camera::Camera("EQUIRECTANGULAR", 2048, 1024, {})); }
-BENCHMARK(BM_P2A_Panorama2048)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_P2A_Panorama2048)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_P2A_Fisheye1024(benchmark::State& state) {
   run_p2a(state, augment::fisheye_with_fov("DOUBLE_SPHERE", 1024, 1024, 200, {-0.1, 0.6}));
 }
-BENCHMARK(BM_P2A_Fisheye1024)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_P2A_Fisheye1024)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // A2P around the teacher: a 518×518 view out of a 2048×1024 panorama and its stitching back.
 void BM_A2P_ExtractAndStitch(benchmark::State& state) {

@@ -27,7 +27,7 @@ void add_reproject_command(CLI::App& app) {
   struct Args {
     std::string input, out, camera;
     double perspective = 0, yaw = 0, pitch = 0, roll = 0, tolerance = 0.05;
-    int64_t width = 640, height = 480, supersample = 2;
+    int64_t width = 640, height = 480, supersample = 0;
     bool no_fill = false;
   };
   auto args = std::make_shared<Args>();
@@ -46,7 +46,7 @@ void add_reproject_command(CLI::App& app) {
   cmd->add_option("--roll", args->roll, "degrees about the view axis")->capture_default_str();
   cmd->add_option("--width", args->width, "width of the --perspective view")->capture_default_str();
   cmd->add_option("--height", args->height, "height of the --perspective view")->capture_default_str();
-  cmd->add_option("--supersample", args->supersample, "splats per source pixel along each axis")->capture_default_str();
+  cmd->add_option("--supersample", args->supersample, "splats per source pixel along each axis (0: automatic)")->capture_default_str();
   cmd->add_option("--tolerance", args->tolerance, "relative depth agreement for valid pixels")->capture_default_str();
   cmd->add_flag("--no-fill", args->no_fill, "leave z-buffer gaps black (they are never labelled either way)");
   cmd->callback([args] {

