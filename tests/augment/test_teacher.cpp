@@ -3,10 +3,14 @@
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "omnipoint/augment/a2p.h"
 #include "omnipoint/augment/teacher.h"
+#include "omnipoint/model/moge2.h"
+#include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_config.h"
 #include "omnipoint/model/omnipoint_model.h"
 
@@ -57,6 +61,31 @@ TEST(Teacher, OmniPointTeacherReturnsTheModelsMetricDistanceAlongItsRays) {
   EXPECT_EQ(result.label.distance.sizes(), at::IntArrayRef({32, 64}));
   EXPECT_TRUE(at::isfinite(result.label.distance).all().item<bool>());
   EXPECT_LT(result.label.mask.sum().item<int64_t>(), 64 * 32 / 4);
+}
+
+TEST(Teacher, MoGe2TeacherReturnsInferDistancesWhereItsMaskHolds) {
+  // The MoGe-2 architecture of the shared fixture (random weights).
+  std::ifstream in(std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a/meta.json");
+  const nlohmann::json meta = nlohmann::json::parse(in);
+  const PerspectiveView view = make_perspective_view(60, 0, 0, 56, 42);
+  const at::Tensor image = at::rand({42, 56, 3});
+  // Random weights: the first seed whose network finds positive depth somewhere, so the
+  // comparison below is not vacuous.
+  for (int seed = 0; seed < 50; ++seed) {
+    at::manual_seed(seed);
+    model::MoGe2Model net(model::MoGe2Config::from_json(meta["model_config"]));
+    net->eval();
+    const auto reference = model::infer(net, image.permute({2, 0, 1}).unsqueeze(0).contiguous(), 12);
+    const at::Tensor confident = reference.mask.squeeze(0) & at::isfinite(reference.distance.squeeze(0));
+    if (!confident.any().item<bool>()) continue;
+    const TeacherPrediction prediction = moge2_teacher(net, 12)(image, view.camera);
+    EXPECT_TRUE(at::equal(prediction.confident, confident));
+    EXPECT_TRUE(at::allclose(prediction.distance.masked_select(confident), reference.distance.squeeze(0).masked_select(confident)));
+    EXPECT_EQ(prediction.distance.masked_select(confident.logical_not()).abs().sum().item<double>(), 0.0);
+    EXPECT_TRUE(at::isfinite(prediction.distance).all().item<bool>());
+    return;
+  }
+  FAIL() << "no random MoGe-2 network with a non-empty mask among 50 seeds";
 }
 
 }  // namespace
