@@ -11,6 +11,7 @@ namespace omnipoint::cli {
 void add_camera_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
+void add_reproject_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
 
 }  // namespace omnipoint::cli
