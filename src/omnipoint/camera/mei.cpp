@@ -33,6 +33,15 @@ class MeiModel final : public CameraModel {
     require_param(*this, "xi", params[4], params[4] >= 0, ">= 0");
   }
 
+  std::vector<double> initial_params(double fx, double fy, double cx, double cy,
+                                     ImageSize size) const override {
+    // ξ = 1 projects every direction but the backward axis; near the axis MEI is a pinhole
+    // with focal f / (1 + ξ), hence the doubled focal lengths.
+    auto params = CameraModel::initial_params(2 * fx, 2 * fy, cx, cy, size);
+    params[4] = 1.0;
+    return params;
+  }
+
   Pixels project(const at::Tensor& params, ImageSize, const at::Tensor& points) const override {
     const auto host = host_values(params);
     const double xi_value = host[4];

@@ -72,8 +72,11 @@ class EnhancedUnifiedModel final : public CameraModel {
 
   std::vector<double> initial_params(double fx, double fy, double cx, double cy,
                                      ImageSize size) const override {
+    // α = 0.5 (β = 1) projects every direction but the backward axis, so fitting sees all
+    // rays of a wide lens from the start; near the axis it matches the pinhole guess.
     auto params = CameraModel::initial_params(fx, fy, cx, cy, size);
-    if (has_beta_) params[5] = 1.0;  // alpha = 0, beta = 1: the pinhole camera
+    params[4] = 0.5;
+    if (has_beta_) params[5] = 1.0;
     return params;
   }
 
@@ -131,6 +134,14 @@ class DoubleSphereModel final : public CameraModel {
     check_focal_positive(*this, params);
     require_param(*this, "xi", params[4], params[4] > -1 && params[4] < 1, "in (-1, 1)");
     require_param(*this, "alpha", params[5], params[5] >= 0 && params[5] <= 1, "in [0, 1]");
+  }
+
+  std::vector<double> initial_params(double fx, double fy, double cx, double cy,
+                                     ImageSize size) const override {
+    // ξ = 0, α = 0.5: UCM's start (see EnhancedUnifiedModel::initial_params).
+    auto params = CameraModel::initial_params(fx, fy, cx, cy, size);
+    params[5] = 0.5;
+    return params;
   }
 
   Pixels project(const at::Tensor& params, ImageSize, const at::Tensor& points) const override {
