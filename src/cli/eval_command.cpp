@@ -30,10 +30,10 @@ namespace {
 namespace fs = std::filesystem;
 
 struct EvalOptions {
-  std::string model, predictions, baseline, out, label, device = "cpu";
+  std::string model, random_model, predictions, baseline, out, label, device = "cpu";
   std::vector<std::string> data;
   bool intrinsics = false, moge_relative = false;
-  std::vector<int64_t> sparse_depth;  // empty value list: the default count
+  std::vector<std::string> sparse_depth;  // no value: the default count
   int64_t num_tokens = 0;
   uint64_t seed = 0;
   double constant_distance = 5.0;
@@ -72,10 +72,24 @@ eval::Predictor external_predictor(const EvalOptions& options) {
   });
 }
 
+// An untrained OmniPoint model of a config file, initialised from --seed: the chance-level row
+// until trained weights exist.
+eval::Predictor random_model_predictor(const EvalOptions& options) {
+  const auto config = model::OmniPointConfig::from_json_text(io::read_file(options.random_model));
+  at::manual_seed(options.seed);
+  const std::string name = options.label.empty()
+                               ? fs::path(options.random_model).stem().string() + " (random weights)"
+                               : options.label;
+  return eval::omnipoint_predictor(model::OmniPointModel(config), name, options.num_tokens, at::Device(options.device));
+}
+
 eval::Predictor make_predictor(const EvalOptions& options) {
-  const int given = !options.model.empty() + !options.predictions.empty() + !options.baseline.empty();
-  if (given != 1) throw std::invalid_argument("give exactly one of --model, --predictions, --baseline");
+  const int given = !options.model.empty() + !options.random_model.empty() + !options.predictions.empty() +
+                    !options.baseline.empty();
+  if (given != 1)
+    throw std::invalid_argument("give exactly one of --model, --random-model, --predictions, --baseline");
   if (!options.model.empty()) return model_predictor(options);
+  if (!options.random_model.empty()) return random_model_predictor(options);
   if (!options.predictions.empty()) return external_predictor(options);
   eval::Predictor predictor;
   if (options.baseline == "oracle") {
@@ -87,6 +101,21 @@ eval::Predictor make_predictor(const EvalOptions& options) {
   }
   if (!options.label.empty()) predictor.name = options.label;
   return predictor;
+}
+
+// --sparse-depth takes an optional count (1,000, the paper's, when given without one).
+int64_t sparse_depth_points(const std::vector<std::string>& values) {
+  if (values.empty() || values.front().empty()) return 1000;
+  std::size_t used = 0;
+  int64_t count = 0;
+  try {
+    count = std::stoll(values.front(), &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != values.front().size() || count < 1)
+    throw std::invalid_argument("--sparse-depth " + values.front() + ": expected a count >= 1");
+  return count;
 }
 
 void print_progress(int64_t done, int64_t total, double seconds) {
@@ -107,6 +136,8 @@ void add_eval_command(CLI::App& app) {
       "benchmarks) with MoGe's protocol per camera split (S.FoV / L.FoV / 360°) and condition "
       "mode; writes samples.jsonl, summary.json and table.md to --out");
   cmd->add_option("--model", options->model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+  cmd->add_option("--random-model", options->random_model,
+                  "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
   cmd->add_option("--predictions", options->predictions,
                   "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
   cmd->add_option("--baseline", options->baseline,
@@ -122,7 +153,7 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--label", options->label, "row label in the table (default: the file or folder name)");
   cmd->add_option("--num-tokens", options->num_tokens, "ViT tokens per image (0: the image's native count)")
       ->capture_default_str();
-  cmd->add_option("--seed", options->seed, "seed mixed into the sparse-depth sampling")->capture_default_str();
+  cmd->add_option("--seed", options->seed, "seed mixed into the sparse-depth sampling (and of --random-model's weights)")->capture_default_str();
   cmd->add_option("--constant-distance", options->constant_distance, "metres, for --baseline constant")
       ->capture_default_str();
   cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
@@ -135,7 +166,7 @@ void add_eval_command(CLI::App& app) {
       throw std::invalid_argument("--num-tokens " + std::to_string(options->num_tokens) + ": expected >= 0");
     eval::RunOptions run;
     const bool sparse_depth = sparse->count() > 0;
-    run.sparse_depth_points = options->sparse_depth.empty() ? 1000 : options->sparse_depth.front();
+    run.sparse_depth_points = sparse_depth_points(options->sparse_depth);
     run.modes = eval::evaluation_modes(options->intrinsics, sparse_depth);
     run.seed = options->seed;
     run.moge_metric = !options->moge_relative;

@@ -48,7 +48,7 @@ Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& na
   predictor.name = name;
   predictor.accepts_intrinsics = true;
   predictor.accepts_sparse_depth = true;
-  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item, const Conditions& conditions) {
+  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item, const Conditions& conditions) mutable {
     torch::NoGradGuard no_grad;
     model::OmniPointInputs inputs;
     inputs.image = image_batch(item.sample, device);
