@@ -118,6 +118,16 @@ TEST_F(RunnerTest, ConstantDistanceScoresWorseThanTheOracle) {
   EXPECT_THROW(constant_distance_predictor(0.0), std::invalid_argument);
 }
 
+TEST_F(RunnerTest, ConstantDistanceTakesTheMedianOfTheSparseDepth) {
+  const auto sample = data::read_sample((*root_ / "sfov" / "1").string());
+  const EvalSample item{"d", "sfov/1", Split::kSmallFov, sample};
+  const Conditions conditions = make_conditions(sample, Mode{false, true}, 9, 5);
+  const double median = conditions.sparse_depth.masked_select(conditions.sparse_depth > 0).median().item<double>();
+  const Predictor constant = constant_distance_predictor(5.0);
+  EXPECT_TRUE(at::equal(constant.predict(item, conditions).distance, at::full_like(sample.distance, median)));
+  EXPECT_TRUE(at::equal(constant.predict(item, Conditions{}).distance, at::full_like(sample.distance, 5.0)));
+}
+
 TEST(RunnerScoring, PanoramaDepthIsTheDistanceSoPointsBehindTheCameraCount) {
   // A sphere of radius 2 around a panorama camera: half the points have z <= 0. Planar depth
   // would drop them; the distance keeps every pixel, and a scaled prediction is exactly

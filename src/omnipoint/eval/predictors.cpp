@@ -122,10 +122,15 @@ Predictor constant_distance_predictor(double distance) {
   predictor.name = label;
   predictor.accepts_intrinsics = true;
   predictor.accepts_sparse_depth = true;
-  predictor.predict = [distance](const EvalSample& item, const Conditions&) {
+  predictor.predict = [distance](const EvalSample& item, const Conditions& conditions) {
+    double value = distance;
+    if (conditions.sparse_depth.defined()) {
+      const at::Tensor samples = conditions.sparse_depth.masked_select(conditions.sparse_depth > 0);
+      if (samples.numel() > 0) value = samples.median().item<double>();
+    }
     GeometryPrediction prediction;
     prediction.rays = item.sample.camera.ray_map(at::kFloat).rays;
-    prediction.distance = at::full_like(item.sample.distance, distance);
+    prediction.distance = at::full_like(item.sample.distance, value);
     prediction.is_metric = true;
     return prediction;
   };

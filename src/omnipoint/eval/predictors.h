@@ -10,7 +10,8 @@
 //               distances are its directions and norms (zero / non-finite points: no ray).
 //   oracle:     the ground truth's own rays and distances (scores Rel 0, δ1 1 everywhere).
 //   constant:   the GT camera's rays with one constant distance for every pixel, metric:
-//               the score of knowing the camera but nothing about the scene.
+//               the score of knowing the camera but nothing about the scene; with sparse
+//               depth the constant is the median of the samples (a scale-only use of +D).
 #include <cstdint>
 #include <functional>
 #include <string>
