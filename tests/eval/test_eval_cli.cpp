@@ -156,6 +156,22 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
   EXPECT_EQ(lines_of(slurp(out / "samples.jsonl")).size(), 6u * 4u);
 }
 
+TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
+  // The MoGe-2 parity fixture's tiny random-weight model: image only, so +K is reported not run.
+  const fs::path out = work_dir() / "eval_moge2";
+  const CliRun run = run_cli("eval --model " + std::string(OMNIPOINT_SHARED_DIR) +
+                             "/fixtures/moge2_forward_a/model.safetensors --label MoGe-2 --data " + data() +
+                             " --intrinsics --out " + out.string());
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.err.find("mode +K not run: MoGe-2 takes no such input"), std::string::npos) << run.err;
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(summary["samples_evaluated"], 6);
+  EXPECT_EQ(summary["modes"], nlohmann::json({"none"}));
+  const auto& entries = summary["scores"]["L.FoV"]["none"]["entries"];
+  EXPECT_TRUE(entries.contains("points_scale_invariant"));
+  EXPECT_EQ(lines_of(slurp(out / "table.md")).size(), 3u);
+}
+
 TEST_F(EvalCli, ExternalPointMapsAreScoredLikeModels) {
   const fs::path predictions = work_dir() / "predictions";
   for (const auto& item : omnipoint::data::list_dataset(data())) {

@@ -32,14 +32,21 @@ RunOptions all_modes(int64_t sparse_points = 50) {
 
 class RunnerTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { root_ = new fs::path(testing::make_tiny_dataset("runner")); }
+  // The oracle's run in every mode, shared by the tests that read it (metrics take time).
+  static void SetUpTestSuite() {
+    root_ = new fs::path(testing::make_tiny_dataset("runner"));
+    oracle_ = new RunResult(run_benchmark(oracle_predictor(), {root_->string()}, all_modes()));
+  }
   static void TearDownTestSuite() {
     fs::remove_all(*root_);
     delete root_;
+    delete oracle_;
   }
   static fs::path* root_;
+  static RunResult* oracle_;
 };
 fs::path* RunnerTest::root_ = nullptr;
+RunResult* RunnerTest::oracle_ = nullptr;
 
 TEST(RunnerSplits, FollowTheCameraModel) {
   EXPECT_EQ(camera_split(camera::parse_camera("PINHOLE 32 24 24 24 16 12")), Split::kSmallFov);
@@ -80,7 +87,7 @@ TEST_F(RunnerTest, SparseDepthSamplingIsDeterministic) {
 }
 
 TEST_F(RunnerTest, OracleScoresPerfectlyOnEverySplitAndMode) {
-  const RunResult result = run_benchmark(oracle_predictor(), {root_->string()}, all_modes());
+  const RunResult& result = *oracle_;
   const Summary& summary = result.summary;
   EXPECT_EQ(summary.samples_total, 6);
   EXPECT_EQ(summary.samples_evaluated, 6);
@@ -157,7 +164,7 @@ TEST(RunnerScoring, PointMapsGiveRaysAndDistances) {
 }
 
 TEST_F(RunnerTest, SummaryAndTableHaveTheRightRowsAndColumns) {
-  const RunResult oracle = run_benchmark(oracle_predictor(), {root_->string()}, all_modes());
+  const RunResult& oracle = *oracle_;
   const RunResult constant = run_benchmark(constant_distance_predictor(5.0), {root_->string()}, RunOptions{});
   const std::string table = markdown_table({oracle.summary, constant.summary});
   std::vector<std::string> lines;
