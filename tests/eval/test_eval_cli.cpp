@@ -156,6 +156,22 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
   EXPECT_EQ(lines_of(slurp(out / "samples.jsonl")).size(), 6u * 4u);
 }
 
+TEST_F(EvalCli, RandomModelFromAConfigIsSeeded) {
+  std::ofstream(work_dir() / "tiny_config.json") << tiny_model_json();
+  const auto table = [&](const std::string& name) {
+    const CliRun run = run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() + " --data " +
+                               data() + " --out " + (work_dir() / name).string());
+    EXPECT_EQ(run.status, 0) << run.err;
+    return slurp(work_dir() / name / "table.md");
+  };
+  const std::string first = table("eval_random_a");
+  EXPECT_NE(first.find("| tiny_config (random weights) | none |"), std::string::npos) << first;
+  EXPECT_EQ(first, table("eval_random_b"));  // same seed, same weights, same scores
+  expect_one_error_line(run_cli("eval --random-model " + (work_dir() / "tiny.json").string() + " --data " + data() +
+                                " --out " + (work_dir() / "eval_random_bad").string()),
+                        "");
+}
+
 TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
   // The MoGe-2 parity fixture's tiny random-weight model: image only, so +K is reported not run.
   const fs::path out = work_dir() / "eval_moge2";
