@@ -8,4 +8,6 @@ class App;
 
 namespace omnipoint::cli {
 
+void add_forward_command(CLI::App& app);
+
 }  // namespace omnipoint::cli

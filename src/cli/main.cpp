@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
+  omnipoint::cli::add_forward_command(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,96 @@
+// omnipoint forward: runs a network on an already-loaded image array and writes its raw
+// outputs as .npy files named after them (DESIGN.md).
+#include <ATen/ATen.h>
+#include <CLI/CLI.hpp>
+#include <c10/core/InferenceMode.h>
+
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "cli/commands.h"
+#include "omnipoint/geometry/point_rays.h"
+#include "omnipoint/io/npy.h"
+#include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/moge2.h"
+
+namespace omnipoint::cli {
+
+namespace {
+
+struct ForwardOptions {
+  std::string model_path;
+  std::string input_path;
+  std::string out_dir;
+  int64_t num_tokens = 0;  // 0: the model's default
+};
+
+// The image as a float32 (B,3,H,W) tensor in [0,1]; std::invalid_argument otherwise.
+at::Tensor read_image_array(const std::string& path) {
+  const at::Tensor array = io::read_npy(path);
+  if (array.dim() != 4 || array.size(1) != 3 || array.size(2) < 1 || array.size(3) < 1 || array.size(0) < 1)
+    throw std::invalid_argument("input " + path + ": expected an array of shape (B,3,H,W), got " +
+                                c10::str(array.sizes()));
+  if (!at::isFloatingType(array.scalar_type()))
+    throw std::invalid_argument("input " + path + ": expected float32 RGB values in [0,1], got dtype " +
+                                std::string(c10::toString(array.scalar_type())));
+  const at::Tensor image = array.to(at::kFloat);
+  if (!at::isfinite(image).all().item<bool>() || image.min().item<float>() < 0 || image.max().item<float>() > 1)
+    throw std::invalid_argument("input " + path + ": values must be finite and in [0,1] (RGB), got [" +
+                                std::to_string(image.min().item<float>()) + ", " +
+                                std::to_string(image.max().item<float>()) + "]");
+  return image;
+}
+
+model::MoGe2Model read_model(const std::string& path) {
+  const io::SafetensorsFile file = io::read_safetensors(path);
+  try {
+    return model::load_moge2(file.tensors, file.metadata);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("model " + path + ": " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("model " + path + ": " + e.what());
+  }
+}
+
+void run_forward(const ForwardOptions& options) {
+  const at::Tensor image = read_image_array(options.input_path);
+  model::MoGe2Model model = read_model(options.model_path);
+  const int64_t num_tokens = options.num_tokens > 0 ? options.num_tokens : model->config().default_num_tokens();
+
+  c10::InferenceMode inference;
+  const model::MoGe2Output output = model->forward(image, num_tokens);
+  const geometry::RaysAndDistance rays = geometry::rays_and_distance(output.points);
+
+  std::filesystem::create_directories(options.out_dir);
+  const auto write = [&](const std::string& name, const at::Tensor& tensor) {
+    if (tensor.defined()) io::write_npy((std::filesystem::path(options.out_dir) / (name + ".npy")).string(), tensor);
+  };
+  write("points", output.points);
+  write("mask", output.mask);
+  write("metric_scale", output.metric_scale);
+  write("rays", rays.rays);
+  write("distance", rays.distance);
+  write("normal", output.normal);
+}
+
+}  // namespace
+
+void add_forward_command(CLI::App& app) {
+  auto options = std::make_shared<ForwardOptions>();
+  CLI::App* command = app.add_subcommand(
+      "forward",
+      "Run the network on a float32 image array (B,3,H,W, RGB in [0,1]) and write its raw outputs "
+      "(points, mask, metric_scale, rays, distance, normal where the model has it) as .npy files");
+  command->add_option("--model", options->model_path, "Weights file (.safetensors with the config in its metadata)")
+      ->required();
+  command->add_option("--input", options->input_path, "Image array (.npy, float32, B×3×H×W)")->required();
+  command->add_option("--num-tokens", options->num_tokens,
+                      "Target number of ViT patch tokens (default: the top of the model's num_tokens_range)")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--out", options->out_dir, "Output folder (created if missing)")->required();
+  command->callback([options] { run_forward(*options); });
+}
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,104 @@
+// End to end: `omnipoint forward` on the MoGe-2 fixture, and its refusals of bad inputs.
+#include <ATen/ATen.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "omnipoint/io/npy.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using omnipoint::io::read_npy;
+
+const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+const std::string kModel = kFixture + "/model.safetensors";
+
+struct CliResult {
+  int status;
+  std::string stderr_text;
+};
+
+class ForwardCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("omnipoint_forward_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CliResult run(const std::string& arguments) const {
+    const std::string err = (dir_ / "stderr.txt").string();
+    const std::string command = std::string(OMNIPOINT_CLI) + " forward " + arguments + " 2> " + err;
+    const int status = std::system(command.c_str());
+    std::ifstream in(err);
+    std::stringstream text;
+    text << in.rdbuf();
+    return {status, text.str()};
+  }
+
+  // A failed run: non-zero exit, exactly one line naming `mention`, no output folder content.
+  void expect_refusal(const std::string& arguments, const std::string& mention) const {
+    const CliResult result = run(arguments + " --out " + (dir_ / "out").string());
+    EXPECT_NE(result.status, 0) << arguments;
+    EXPECT_EQ(std::count(result.stderr_text.begin(), result.stderr_text.end(), '\n'), 1) << result.stderr_text;
+    EXPECT_EQ(result.stderr_text.rfind("omnipoint: error: ", 0), 0u) << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(mention), std::string::npos) << result.stderr_text;
+    EXPECT_FALSE(fs::exists(dir_ / "out" / "points.npy"));
+  }
+
+  fs::path dir_;
+};
+
+void expect_close(const at::Tensor& actual, const at::Tensor& reference, const std::string& name) {
+  ASSERT_EQ(actual.sizes(), reference.sizes()) << name;
+  const at::Tensor excess = (actual - reference).abs() - (1e-4 + 1e-4 * reference.abs());
+  EXPECT_LE(excess.max().item<float>(), 0.0f) << name;
+}
+
+TEST_F(ForwardCommand, WritesTheFixtureOutputs) {
+  const fs::path out = dir_ / "out";
+  const CliResult result = run("--model " + kModel + " --input " + kFixture + "/input.npy --num-tokens 300 --out " +
+                         out.string());
+  ASSERT_EQ(result.status, 0) << result.stderr_text;
+  EXPECT_EQ(result.stderr_text, "");
+  const at::Tensor points = read_npy((out / "points.npy").string());
+  expect_close(points, read_npy(kFixture + "/expected_points.npy"), "points");
+  expect_close(read_npy((out / "mask.npy").string()), read_npy(kFixture + "/expected_mask.npy"), "mask");
+  expect_close(read_npy((out / "metric_scale.npy").string()), read_npy(kFixture + "/expected_metric_scale.npy"),
+               "metric_scale");
+  // Rays and distances describe the same point map.
+  const at::Tensor rays = read_npy((out / "rays.npy").string());
+  const at::Tensor distance = read_npy((out / "distance.npy").string());
+  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(rays, 2, {-1}), at::ones_like(distance), 0, 1e-5));
+  EXPECT_TRUE(at::allclose(rays * distance.unsqueeze(-1), points, 1e-5, 1e-5));
+  EXPECT_FALSE(fs::exists(out / "normal.npy"));  // the fixture model has no normal head
+}
+
+TEST_F(ForwardCommand, RefusesBadFilesWithOneLine) {
+  const std::string input = kFixture + "/input.npy";
+  expect_refusal("--model " + (dir_ / "missing.safetensors").string() + " --input " + input, "missing.safetensors");
+  expect_refusal("--model " + input + " --input " + input, input);  // not a weights file
+  expect_refusal("--model " + kModel + " --input " + (dir_ / "missing.npy").string(), "missing.npy");
+}
+
+TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
+  const std::string input = kFixture + "/input.npy";
+  expect_refusal("--model " + kModel + " --input " + kFixture + "/expected_points.npy", "(B,3,H,W)");
+
+  const std::string too_bright = (dir_ / "too_bright.npy").string();
+  omnipoint::io::write_npy(too_bright, read_npy(input) * 2);
+  expect_refusal("--model " + kModel + " --input " + too_bright, "[0,1]");
+  const std::string integers = (dir_ / "integers.npy").string();
+  omnipoint::io::write_npy(integers, at::zeros({1, 3, 8, 8}, at::kByte));
+  expect_refusal("--model " + kModel + " --input " + integers, "float32");
+}
+
+}  // namespace
