@@ -9,5 +9,6 @@ class App;
 namespace omnipoint::cli {
 
 void add_forward_command(CLI::App& app);
+void add_metrics_command(CLI::App& app);
 
 }  // namespace omnipoint::cli
