@@ -11,4 +11,5 @@ namespace omnipoint::cli {
 void add_forward_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
 
+void add_synth_command(CLI::App& app);
 }  // namespace omnipoint::cli

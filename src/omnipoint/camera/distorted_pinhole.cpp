@@ -19,13 +19,17 @@ void DistortedPinholeModel::check_params(const std::vector<double>& params, Imag
   check_focal_positive(*this, params);
 }
 
+double DistortedPinholeModel::monotonic_radius(const at::Tensor& params) const {
+  const auto host_params = params.to(at::kCPU, at::kDouble);
+  return camera::monotonic_radius([&](const at::Tensor& u) { return distort(host_params, u); });
+}
+
 Pixels DistortedPinholeModel::project(const at::Tensor& params, ImageSize,
                                       const at::Tensor& points) const {
   const auto plane = project_to_plane(points);
-  const auto params64 = params.to(at::kDouble);
-  const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
-  const auto valid = plane.valid & invertible_from_origin(g, plane.normalised.to(at::kDouble)).to(points.device());
   const auto pixels = denormalise_pixels(focal_principal(*this, params), distort(params, plane.normalised));
+  const auto valid = plane.valid & (plane.normalised.norm(2, -1) < monotonic_radius(params)) &
+                     at::isfinite(pixels).all(-1);
   return {at::where(valid.unsqueeze(-1), pixels, at::zeros_like(pixels)), valid};
 }
 
@@ -34,9 +38,9 @@ Rays DistortedPinholeModel::unproject(const at::Tensor& params, ImageSize,
   const auto params64 = params.to(at::kDouble);
   const Map2D g = [&](const at::Tensor& u) { return distort(params64, u); };
   const auto distorted = normalise_pixels(focal_principal(*this, params64), pixels.to(at::kDouble));
-  const auto solved = solve_2d(g, distorted, distorted);
-  const auto valid = solved.converged & invertible_from_origin(g, solved.solution);
+  const auto solved = solve_2d(g, distorted, distorted, monotonic_radius(params));
   const auto rays = rays_from_plane(solved.solution);
+  const auto valid = solved.converged;
   return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)).to(pixels.scalar_type()), valid};
 }
 

@@ -9,6 +9,12 @@ namespace omnipoint::camera {
 
 const CameraModel& simple_pinhole_model();
 const CameraModel& pinhole_model();
+const CameraModel& simple_radial_model();
+const CameraModel& radial_model();
+const CameraModel& opencv_model();
+const CameraModel& full_opencv_model();
+const CameraModel& fov_model();
+const CameraModel& equirectangular_model();
 
 namespace {
 
@@ -16,6 +22,12 @@ const std::vector<const CameraModel*>& all_models() {
   static const std::vector<const CameraModel*> models = {
       &simple_pinhole_model(),
       &pinhole_model(),
+      &simple_radial_model(),
+      &radial_model(),
+      &opencv_model(),
+      &full_opencv_model(),
+      &fov_model(),
+      &equirectangular_model(),
   };
   return models;
 }

@@ -1,11 +1,11 @@
 #pragma once
 // A robust batched solver for inverting 2-D lens distortions (the unprojection of models
-// without a closed-form inverse), and the check that a distortion is invertible where it is
-// evaluated (inside the monotonic range of its polynomial).
+// without a closed-form inverse), and the domain where such a distortion is invertible (the
+// monotonic range of its polynomial around the axis).
 //
 // `Map2D` maps points (..., 2) -> (..., 2) element by element: every row is independent of the
 // others, so the batch may be reshaped, subset or stacked with a new leading dimension.
-// Parameters are captured by the function (as 0-d or 1-d tensors that broadcast).
+// Parameters are captured by the function (as 0-d tensors that broadcast).
 #include <ATen/core/Tensor.h>
 
 #include <functional>
@@ -24,22 +24,26 @@ struct Solve2DResult {
 constexpr double kSolveTolerance = 1e-12;
 
 // Solves g(u) = target for u by Levenberg-Marquardt, independently for every element:
-// Newton steps on the finite-difference Jacobian, damped (lambda * I added to J^T J) and
+// Gauss-Newton steps on a finite-difference Jacobian, damped (lambda * I added to J^T J) and
 // rejected unless they reduce the residual; damping shrinks after a good step and grows after
 // a bad one, so the solve neither diverges nor jumps between branches of the distortion.
-// Computes in float64 whatever the input dtype, for at most `max_iterations` iterations, on
-// the elements that have not converged yet. Elements whose residual stays above the
-// tolerance (no preimage, e.g. beyond the distortion's range) have converged = false.
+// Computes in float64 whatever the input dtype, on the elements still unconverged, for at
+// most `max_iterations` iterations. An element fails (converged = false) when its residual
+// stays above the tolerance: it stalls (no preimage, e.g. beyond the distortion's range) or
+// leaves the disc |u| < max_radius (see monotonic_radius).
 Solve2DResult solve_2d(const Map2D& g, const at::Tensor& target, const at::Tensor& initial,
-                       int max_iterations = 60);
+                       double max_radius, int max_iterations = 50);
 
-// Jacobian of g at u by central differences: (..., 2, 2), [..., i, j] = d g_i / d u_j.
-at::Tensor jacobian_2d(const Map2D& g, const at::Tensor& u);
+// Jacobian of g at u by forward differences: (..., 2, 2), [..., i, j] = d g_i / d u_j.
+// `value` is g(u), already known to the caller.
+at::Tensor jacobian_2d(const Map2D& g, const at::Tensor& u, const at::Tensor& value);
 
-// Whether g is locally invertible and orientation-preserving (det J > 0 and trace J > 0, so
-// no fold and no flip) at `samples` points evenly spaced along the segment from 0 to u, i.e.
-// whether u lies in the monotonic range of the distortion that contains the origin. (...)
-// bool. Pixels outside that range have no unique preimage: models mark them invalid.
-at::Tensor invertible_from_origin(const Map2D& g, const at::Tensor& u, int samples = 8);
+// The radius of the largest disc around the origin in which g is locally invertible and
+// orientation-preserving (det J > 0 and trace J > 0: no fold, no flip), i.e. the monotonic
+// range of the distortion. Found on a polar grid (32 directions, radii log-spaced from 1e-3
+// to 1e3, 0.5% apart) and rounded down to a grid radius; +inf when g is monotonic on the
+// whole grid. `g` must accept CPU float64 tensors. Inside this disc the preimage solve_2d
+// finds is unique; pixels whose preimage lies outside are invalid.
+double monotonic_radius(const Map2D& g);
 
 }  // namespace omnipoint::camera
