@@ -12,4 +12,5 @@ void add_forward_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
 
 void add_synth_command(CLI::App& app);
+void add_train_command(CLI::App& app);
 }  // namespace omnipoint::cli
