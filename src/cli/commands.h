@@ -13,4 +13,6 @@ void add_metrics_command(CLI::App& app);
 
 void add_synth_command(CLI::App& app);
 void add_train_command(CLI::App& app);
+void add_camera_command(CLI::App& app);
+
 }  // namespace omnipoint::cli

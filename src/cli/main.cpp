@@ -14,11 +14,15 @@ int main(int argc, char** argv) {
   omnipoint::cli::add_metrics_command(app);
   omnipoint::cli::add_synth_command(app);
   omnipoint::cli::add_train_command(app);
+  omnipoint::cli::add_camera_command(app);
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // Bad arguments: one line on stderr, like every other error (DESIGN.md).
+    std::cerr << "omnipoint: error: " << e.what() << " (see --help)\n";
+    return e.get_exit_code();
   } catch (const std::exception& e) {
     std::cerr << "omnipoint: error: " << e.what() << "\n";
     return 1;

@@ -95,7 +95,21 @@ at::Tensor denormalise_pixels(const FocalPrincipal& k, const at::Tensor& normali
 at::Tensor rays_from_plane(const at::Tensor& normalised) {
   const auto ones = at::ones_like(normalised.select(-1, 0)).unsqueeze(-1);
   const auto homogeneous = at::cat({normalised, ones}, -1);
-  return homogeneous / homogeneous.norm(2, -1, true);
+  return homogeneous / length(homogeneous).unsqueeze(-1);
+}
+
+at::Tensor squared_length(const at::Tensor& v) {
+  auto sum = v.select(-1, 0) * v.select(-1, 0);
+  for (int64_t i = 1; i < v.size(-1); ++i) sum = sum + v.select(-1, i) * v.select(-1, i);
+  return sum;
+}
+
+at::Tensor length(const at::Tensor& v) { return at::sqrt(squared_length(v)); }
+
+at::Tensor all_finite(const at::Tensor& v) {
+  auto finite = at::isfinite(v.select(-1, 0));
+  for (int64_t i = 1; i < v.size(-1); ++i) finite = finite & at::isfinite(v.select(-1, i));
+  return finite;
 }
 
 void check_focal_positive(const CameraModel& model, const std::vector<double>& params) {

@@ -103,6 +103,11 @@ at::Tensor normalise_pixels(const FocalPrincipal& k, const at::Tensor& pixels);
 at::Tensor denormalise_pixels(const FocalPrincipal& k, const at::Tensor& normalised);
 // (x, y) on the plane z = 1 -> unit rays.
 at::Tensor rays_from_plane(const at::Tensor& normalised);
+// Reductions over the short last dimension (2 or 3) of coordinate tensors, written
+// element-wise: ATen's reductions over a tiny last dimension are several times slower.
+at::Tensor squared_length(const at::Tensor& v);  // (...): sum of squares
+at::Tensor length(const at::Tensor& v);          // (...): Euclidean length
+at::Tensor all_finite(const at::Tensor& v);      // (...) bool
 // Throws std::invalid_argument unless the focal lengths are > 0.
 void check_focal_positive(const CameraModel& model, const std::vector<double>& params);
 

@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -150,9 +151,11 @@ Camera camera_from_file(const std::string& path, const std::string& id) {
   return camera_from_text_file(text, path, id);
 }
 
+// The shortest of %.15g / %.17g that parses back to exactly `value`.
 std::string format_double(double value) {
   char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  std::snprintf(buffer, sizeof buffer, "%.15g", value);
+  if (std::strtod(buffer, nullptr) != value) std::snprintf(buffer, sizeof buffer, "%.17g", value);
   return buffer;
 }
 

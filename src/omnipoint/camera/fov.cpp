@@ -37,7 +37,7 @@ class FovModel final : public CameraModel {
     auto distorted = plane.normalised;
     if (omega > 0) {
       const double two_tan = 2 * std::tan(omega / 2);
-      const auto r = plane.normalised.norm(2, -1, true);
+      const auto r = length(plane.normalised).unsqueeze(-1);
       const auto small = r < kSmallRadius;
       const auto safe_r = at::where(small, at::ones_like(r), r);
       const auto factor = at::where(small, at::full_like(r, two_tan / omega), at::atan(two_tan * safe_r) / (omega * safe_r));
@@ -54,7 +54,7 @@ class FovModel final : public CameraModel {
       return {rays_from_plane(distorted), at::ones_like(pixels.select(-1, 0), pixels.options().dtype(at::kBool))};
     }
     const double two_tan = 2 * std::tan(omega / 2);
-    const auto rd = distorted.norm(2, -1, true);
+    const auto rd = length(distorted).unsqueeze(-1);
     const auto valid = (rd * omega < M_PI / 2).squeeze(-1);
     const auto small = rd < kSmallRadius;
     const auto safe_rd = at::where(small | ~valid.unsqueeze(-1), at::full_like(rd, 0.5), rd);

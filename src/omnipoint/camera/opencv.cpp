@@ -28,7 +28,7 @@ class OpenCVModel final : public DistortedPinholeModel {
     return {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"};
   }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
-    const auto r2 = u.pow(2).sum(-1, true);
+    const auto r2 = squared_length(u).unsqueeze(-1);
     const auto radial = 1 + r2 * (params[4] + params[5] * r2);
     return radial_tangential(u, radial, params[6], params[7]);
   }
@@ -41,7 +41,7 @@ class FullOpenCVModel final : public DistortedPinholeModel {
     return {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
   }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
-    const auto r2 = u.pow(2).sum(-1, true);
+    const auto r2 = squared_length(u).unsqueeze(-1);
     const auto numerator = 1 + r2 * (params[4] + r2 * (params[5] + r2 * params[8]));
     const auto denominator = 1 + r2 * (params[9] + r2 * (params[10] + r2 * params[11]));
     return radial_tangential(u, numerator / denominator, params[6], params[7]);

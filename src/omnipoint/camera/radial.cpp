@@ -12,7 +12,7 @@ class SimpleRadialModel final : public DistortedPinholeModel {
   std::string name() const override { return "SIMPLE_RADIAL"; }
   std::vector<std::string> param_names() const override { return {"f", "cx", "cy", "k"}; }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
-    const auto r2 = u.pow(2).sum(-1, true);
+    const auto r2 = squared_length(u).unsqueeze(-1);
     return u * (1 + params[3] * r2);
   }
 };
@@ -22,7 +22,7 @@ class RadialModel final : public DistortedPinholeModel {
   std::string name() const override { return "RADIAL"; }
   std::vector<std::string> param_names() const override { return {"f", "cx", "cy", "k1", "k2"}; }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
-    const auto r2 = u.pow(2).sum(-1, true);
+    const auto r2 = squared_length(u).unsqueeze(-1);
     return u * (1 + r2 * (params[3] + params[4] * r2));
   }
 };

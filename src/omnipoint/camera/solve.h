@@ -40,8 +40,8 @@ at::Tensor jacobian_2d(const Map2D& g, const at::Tensor& u, const at::Tensor& va
 
 // The radius of the largest disc around the origin in which g is locally invertible and
 // orientation-preserving (det J > 0 and trace J > 0: no fold, no flip), i.e. the monotonic
-// range of the distortion. Found on a polar grid (32 directions, radii log-spaced from 1e-3
-// to 1e3, 0.5% apart) and rounded down to a grid radius; +inf when g is monotonic on the
+// range of the distortion. Found on a polar grid (16 directions, radii log-spaced from 1e-3
+// to 1e3, 1% apart) and rounded down to a grid radius; +inf when g is monotonic on the
 // whole grid. `g` must accept CPU float64 tensors. Inside this disc the preimage solve_2d
 // finds is unique; pixels whose preimage lies outside are invalid.
 double monotonic_radius(const Map2D& g);

@@ -1,0 +1,62 @@
+// Fitting recovers the camera that produced an exact ray map.
+#include <ATen/ATen.h>
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/camera/fit.h"
+
+namespace omnipoint::camera {
+namespace {
+
+void expect_recovers(const std::string& spec, double focal_tolerance, double distortion_tolerance) {
+  const auto truth = parse_camera(spec);
+  const auto map = truth.ray_map(at::kDouble);
+  const auto fitted = fit_camera(truth.model_name(), truth.width(), truth.height(), map.rays, map.valid);
+  ASSERT_EQ(fitted.model_name(), truth.model_name());
+  const auto names = truth.model().param_names();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const bool pixel_unit = names[i] == "f" || names[i] == "fx" || names[i] == "fy" ||
+                            names[i] == "cx" || names[i] == "cy";
+    EXPECT_NEAR(fitted.params()[i], truth.params()[i], pixel_unit ? focal_tolerance : distortion_tolerance)
+        << names[i] << " of " << spec;
+  }
+}
+
+TEST(FitCamera, RecoversPinhole) { expect_recovers("PINHOLE 320 240 250.5 252.25 160.5 119.75", 1e-6, 0); }
+
+TEST(FitCamera, RecoversOpenCV) {
+  expect_recovers("OPENCV 320 240 250 252 160.5 119.5 -0.2 0.05 0.001 -0.0008", 1e-4, 1e-6);
+}
+
+TEST(FitCamera, RecoversFov) { expect_recovers("FOV 320 240 150 151 160 120 0.9", 1e-4, 1e-6); }
+
+TEST(FitCamera, RecoversOpenCVFisheye) {
+  // Over 180 degrees: the fit uses rays behind the image plane too.
+  expect_recovers("OPENCV_FISHEYE 320 240 92.6 92.4 160.3 119.6 0.025 -0.011 0.0016 -0.0001", 1e-4, 1e-6);
+}
+
+TEST(FitCamera, RecoversUnifiedModels) {
+  expect_recovers("UCM 320 240 80.6 80.4 159.3 121.2 0.55", 1e-4, 1e-6);
+  expect_recovers("EUCM 320 240 90.1 89.9 160.9 119.7 0.58 1.08", 1e-4, 1e-6);
+  expect_recovers("DOUBLE_SPHERE 320 240 70.2 70.1 160.3 119.9 -0.2 0.55", 1e-4, 1e-6);
+  expect_recovers("MEI 320 240 210.3 209.6 160.7 119.4 1.35 -0.12 0.05 0.0006 -0.0004", 1e-4, 1e-6);
+}
+
+TEST(FitCamera, FloatRayMapFitsToFloatPrecision) {
+  const auto truth = parse_camera("PINHOLE 320 240 250.5 252.25 160.5 119.75");
+  const auto map = truth.ray_map(at::kFloat);
+  const auto fitted = fit_camera("PINHOLE", 320, 240, map.rays, map.valid);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 1e-3);
+}
+
+TEST(FitCamera, RejectsBadInput) {
+  const auto map = parse_camera("PINHOLE 32 24 25 25 16 12").ray_map(at::kDouble);
+  EXPECT_THROW(fit_camera("PINHOLE", 24, 32, map.rays, map.valid), std::invalid_argument);
+  EXPECT_THROW(fit_camera("PINHOLE", 32, 24, map.rays, at::zeros_like(map.valid)), std::invalid_argument);
+  EXPECT_THROW(fit_camera("NOPE", 32, 24, map.rays, map.valid), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace omnipoint::camera

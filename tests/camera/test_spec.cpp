@@ -1,0 +1,154 @@
+// Camera specs: every accepted form, and every error path with a message naming the model
+// (or the input) and what it expects.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <stdexcept>
+
+#include "omnipoint/camera/camera.h"
+
+namespace omnipoint::camera {
+namespace {
+namespace fs = std::filesystem;
+
+// Expects `action` to throw E whose message contains every one of `parts`.
+template <typename E>
+void expect_error(const std::function<void()>& action, const std::vector<std::string>& parts) {
+  try {
+    action();
+    ADD_FAILURE() << "no exception; expected one mentioning " << parts.front();
+  } catch (const E& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << message;
+  }
+}
+
+void expect_bad_spec(const std::string& spec, const std::vector<std::string>& parts) {
+  expect_error<std::invalid_argument>([&] { parse_camera(spec); }, parts);
+}
+
+class SpecFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("omnipoint_spec_test_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string write(const std::string& name, const std::string& content) {
+    const auto path = (dir_ / name).string();
+    std::ofstream(path) << content;
+    return path;
+  }
+  fs::path dir_;
+};
+
+TEST(CameraSpec, ColmapLine) {
+  const auto camera = parse_camera("  PINHOLE 640 480 500 501 320 240\n");
+  EXPECT_EQ(camera.model_name(), "PINHOLE");
+  EXPECT_EQ(camera.width(), 640);
+  EXPECT_EQ(camera.height(), 480);
+  EXPECT_EQ(camera.params(), (std::vector<double>{500, 501, 320, 240}));
+  EXPECT_EQ(parse_camera("3 PINHOLE 640 480 500 501 320 240"), camera);
+}
+
+TEST(CameraSpec, Json) {
+  const auto camera = parse_camera(R"({"model": "OPENCV", "width": 64, "height": 48,
+                                       "params": [50, 50, 32, 24, -0.1, 0.01, 0, 0]})");
+  EXPECT_EQ(camera.model_name(), "OPENCV");
+  EXPECT_EQ(camera.params()[4], -0.1);
+  EXPECT_EQ(parse_camera(camera.to_json()), camera);
+}
+
+TEST(CameraSpec, ToSpecRoundTripsExactly) {
+  const auto camera = make_camera("OPENCV", 64, 48, {1.0 / 3, 0.1, 32.123456789012345, 24, -1e-17, 0.2, 0, 0});
+  EXPECT_EQ(parse_camera(camera.to_spec()), camera);
+  EXPECT_EQ(parse_camera(camera.to_json()), camera);
+}
+
+TEST(CameraSpec, CentredPinhole) {
+  const auto camera = centred_pinhole(90, 640, 480);
+  EXPECT_EQ(camera.model_name(), "PINHOLE");
+  EXPECT_NEAR(camera.params()[0], 320, 1e-9);
+  EXPECT_NEAR(camera.params()[1], 320, 1e-9);
+  EXPECT_EQ(camera.params()[2], 320);
+  EXPECT_EQ(camera.params()[3], 240);
+  expect_error<std::invalid_argument>([] { centred_pinhole(180, 640, 480); }, {"--fov", "(0, 180)"});
+  expect_error<std::invalid_argument>([] { centred_pinhole(0, 640, 480); }, {"--fov"});
+}
+
+TEST(CameraSpec, WrongParameterCount) {
+  expect_bad_spec("PINHOLE 640 480 500 500 320", {"PINHOLE", "expects 4 parameters (fx fy cx cy)", "got 3"});
+  expect_bad_spec("EQUIRECTANGULAR 64 32 1 2", {"EQUIRECTANGULAR", "0 parameters", "or 4"});
+  expect_bad_spec("OPENCV 64 48", {"OPENCV", "8 parameters"});
+}
+
+TEST(CameraSpec, UnknownModel) {
+  expect_bad_spec("PINHOL 640 480 500 500 320 240", {"unknown camera model 'PINHOL'", "PINHOLE", "OPENCV", "EQUIRECTANGULAR"});
+  expect_bad_spec(R"({"model": "X", "width": 1, "height": 1, "params": []})", {"unknown camera model 'X'"});
+}
+
+TEST(CameraSpec, NonFiniteOrNonNumeric) {
+  expect_bad_spec("PINHOLE 640 480 nan 500 320 240", {"PINHOLE", "not finite", "fx fy cx cy"});
+  expect_bad_spec("PINHOLE 640 480 inf 500 320 240", {"PINHOLE", "not finite"});
+  expect_bad_spec("PINHOLE 640 480 5OO 500 320 240", {"PINHOLE", "not a number: '5OO'"});
+  expect_bad_spec("PINHOLE 640.5 480 500 500 320 240", {"PINHOLE", "width must be an integer"});
+}
+
+TEST(CameraSpec, ImpossibleValues) {
+  expect_bad_spec("PINHOLE 640 480 0 500 320 240", {"PINHOLE", "focal length fx must be > 0"});
+  expect_bad_spec("SIMPLE_RADIAL 640 480 -5 320 240 0.1", {"SIMPLE_RADIAL", "focal length f must be > 0"});
+  expect_bad_spec("PINHOLE 0 480 500 500 320 240", {"PINHOLE", "image size must be positive"});
+  expect_bad_spec("FOV 640 480 300 300 320 240 3.5", {"FOV", "omega must be in [0, pi)"});
+  expect_bad_spec("EQUIRECTANGULAR 64 32 1 -1 0 1", {"EQUIRECTANGULAR", "lon_min < lon_max"});
+  expect_bad_spec("EQUIRECTANGULAR 64 32 -1 1 0 2", {"EQUIRECTANGULAR", "lat_max <= pi/2"});
+}
+
+TEST(CameraSpec, BadJson) {
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 64)", {"not valid JSON"});
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 64, "height": 48})", {"expected {\"model\""});
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 64, "height": 48, "params": [1, "a", 3, 4]})", {"params must be numbers"});
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 6.5, "height": 48, "params": [1, 1, 3, 4]})", {"expected {\"model\""});
+}
+
+TEST(CameraSpec, EmptyOrUnrecognised) {
+  expect_bad_spec("   ", {"empty camera spec"});
+  expect_error<std::runtime_error>([] { parse_camera("/no/such/cameras.txt"); },
+                                   {"'/no/such/cameras.txt'", "not a camera line", "existing file"});
+}
+
+TEST_F(SpecFiles, CamerasTxtFirstAndById) {
+  const auto path = write("cameras.txt",
+                          "# Camera list with one line of data per camera:\n"
+                          "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+                          "# Number of cameras: 2\n"
+                          "1 PINHOLE 640 480 500 500 320 240\n"
+                          "\n"
+                          "7 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n");
+  EXPECT_EQ(parse_camera(path).model_name(), "PINHOLE");
+  EXPECT_EQ(parse_camera(path + "#7").model_name(), "SIMPLE_RADIAL");
+  EXPECT_EQ(parse_camera(path + ":7").model_name(), "SIMPLE_RADIAL");
+  EXPECT_EQ(parse_camera(path + ":1").model_name(), "PINHOLE");
+  expect_bad_spec(path + "#3", {path, "no camera with id 3", "ids: 1 7"});
+  expect_bad_spec(path + "#x", {"camera id must be an integer"});
+}
+
+TEST_F(SpecFiles, SingleLineAndJsonFiles) {
+  EXPECT_EQ(parse_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(), "FOV");
+  const auto json = write("cam.json", R"({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []})");
+  EXPECT_EQ(parse_camera(json).model_name(), "EQUIRECTANGULAR");
+  expect_bad_spec(json + "#2", {"JSON camera file holds one camera"});
+}
+
+TEST_F(SpecFiles, BadFiles) {
+  expect_bad_spec(write("empty.txt", "# nothing\n"), {"contains no camera"});
+  expect_bad_spec(write("junk.txt", "hello world\n"), {"not a camera line"});
+  expect_bad_spec(write("bad.json", "{\"model\": \n"), {"bad.json", "not valid JSON"});
+  expect_bad_spec(write("badcount.txt", "1 PINHOLE 640 480 500 500\n"), {"PINHOLE", "expects 4 parameters"});
+}
+
+}  // namespace
+}  // namespace omnipoint::camera
