@@ -31,6 +31,7 @@ std::string state_key(const at::Tensor& parameter) {
 
 model::OmniPointModel build_model(const TrainConfig& config) {
   using namespace model;
+  at::manual_seed(config.seed);  // the initial weights of fresh layers follow the config's seed
   if (config.init_from == "omnipoint") {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
     return load_omnipoint_model(file.tensors, file.metadata);

@@ -104,6 +104,7 @@ class Trainer {
 
 // The network a config asks for: built from "model" (scratch), then initialised from a DINOv2
 // or MoGe-2 checkpoint, or loaded from an OmniPoint checkpoint ("init"). Reads init.path.
+// Seeds the default generator with config.seed first, so fresh weights are reproducible.
 model::OmniPointModel build_model(const TrainConfig& config);
 
 }  // namespace omnipoint::train
