@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,12 +12,17 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "cli/commands.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/train/checkpoint.h"
+#include "omnipoint/train/distributed.h"
 #include "omnipoint/train/trainer.h"
 
 namespace omnipoint::cli {
@@ -29,7 +35,41 @@ struct TrainOptions {
   std::string config_path;
   std::string resume;
   int64_t stop_after = 0;  // 0: run to the end
+  int64_t nproc = 1;       // > 1: launch that many local ranks
 };
+
+// --nproc N: starts N copies of this command as ranks 0..N-1 of one data-parallel job on this
+// machine (the environment a launcher such as torchrun would set) and waits for all of them.
+void launch_local_ranks(const TrainOptions& options) {
+  std::vector<std::string> arguments{"omnipoint", "train", "--config", options.config_path};
+  if (!options.resume.empty()) arguments.insert(arguments.end(), {"--resume", options.resume});
+  if (options.stop_after > 0) arguments.insert(arguments.end(), {"--stop-after", std::to_string(options.stop_after)});
+  std::vector<pid_t> children;
+  for (int64_t rank = 0; rank < options.nproc; ++rank) {
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error("--nproc: cannot start rank " + std::to_string(rank));
+    if (pid == 0) {
+      setenv("RANK", std::to_string(rank).c_str(), 1);
+      setenv("LOCAL_RANK", std::to_string(rank).c_str(), 1);
+      setenv("WORLD_SIZE", std::to_string(options.nproc).c_str(), 1);
+      setenv("MASTER_ADDR", "127.0.0.1", 0);
+      setenv("MASTER_PORT", "29500", 0);
+      std::vector<char*> argv;
+      for (std::string& argument : arguments) argv.push_back(argument.data());
+      argv.push_back(nullptr);
+      execv("/proc/self/exe", argv.data());
+      _exit(127);
+    }
+    children.push_back(pid);
+  }
+  std::string failures;
+  for (size_t rank = 0; rank < children.size(); ++rank) {
+    int status = 0;
+    waitpid(children[rank], &status, 0);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) failures += " " + std::to_string(rank);
+  }
+  if (!failures.empty()) throw std::runtime_error("--nproc " + std::to_string(options.nproc) + ": rank(s)" + failures + " failed");
+}
 
 std::string clock_text(double seconds) {
   const auto total = static_cast<long long>(seconds + 0.5);
@@ -71,15 +111,20 @@ void run_train(const TrainOptions& options) {
   if (resume) resumed = train::read_checkpoint(options.resume);
   model::OmniPointModel network = resume ? model::load_omnipoint_model(resumed.model, resumed.model_metadata)
                                          : train::build_model(config);
-  train::Trainer trainer(config, network);
+  const std::unique_ptr<train::DataParallel> parallel = train::DataParallel::from_environment();
+  train::Trainer trainer(config, network, parallel ? parallel->rank() : 0, parallel ? parallel->world_size() : 1,
+                         parallel ? parallel->reducer() : train::GradientReducer{});
   if (resume) trainer.restore(resumed);
+  const bool writer = !parallel || parallel->rank() == 0;  // only rank 0 writes logs and files
 
   const fs::path out_dir(config.output_dir);
   const std::string checkpoint_dir = (out_dir / "checkpoints").string();
   const std::string log_path = (out_dir / "log.jsonl").string();
-  fs::create_directories(checkpoint_dir);
-  if (resume) truncate_log(log_path, trainer.step());
-  else if (fs::exists(log_path)) fs::remove(log_path);
+  if (writer) {
+    fs::create_directories(checkpoint_dir);
+    if (resume) truncate_log(log_path, trainer.step());
+    else if (fs::exists(log_path)) fs::remove(log_path);
+  }
 
   const int64_t total = config.total_steps();
   const int64_t end = options.stop_after > 0 ? std::min(total, options.stop_after) : total;
@@ -93,6 +138,7 @@ void run_train(const TrainOptions& options) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double rate = images / std::max(elapsed, 1e-9);
     const double eta = elapsed / static_cast<double>(record.step - first) * static_cast<double>(total - record.step);
+    if (!writer) continue;
     append_line(log_path, {{"step", record.step}, {"stage", record.stage}, {"loss", record.loss},
                            {"terms", record.terms}, {"grad_norm", record.grad_norm}, {"skipped", record.skipped},
                            {"lr_backbone", record.lr_backbone}, {"lr_heads", record.lr_heads},
@@ -112,6 +158,7 @@ void run_train(const TrainOptions& options) {
     if (config.eval_every > 0 && record.step % config.eval_every == 0)
       append_line(log_path, {{"step", record.step}, {"eval", trainer.evaluate()}});
   }
+  if (!writer) return;
   if (!saved) train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
   if (trainer.done()) {
     const auto metadata = model::omnipoint_metadata(network->config());
@@ -134,7 +181,13 @@ void add_train_command(CLI::App& app) {
   command->add_option("--stop-after", options->stop_after,
                       "Stop after this many steps in total (with a checkpoint), as an interruption would")
       ->check(CLI::PositiveNumber);
-  command->callback([options] { run_train(*options); });
+  command->add_option("--nproc", options->nproc,
+                      "Data-parallel ranks to start on this machine (Gloo; the config's batch_size is per rank)")
+      ->check(CLI::PositiveNumber);
+  command->callback([options] {
+    if (options->nproc > 1 && std::getenv("WORLD_SIZE") == nullptr) launch_local_ranks(*options);
+    else run_train(*options);
+  });
 }
 
 }  // namespace omnipoint::cli

@@ -261,5 +261,38 @@ TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
   fs::remove_all(root);
 }
 
+TEST(TrainCli, TwoGlooRanksEqualOneProcessOnTheCombinedBatch) {
+  const std::string root = temp_dir("ddp");
+  const auto write_config = [&](const std::string& name, int64_t batch_size) {
+    json config = tiny_config(root + "/" + name);
+    config["data"]["batch_size"] = batch_size;
+    // The local loss draws its anchors per process; off here so that the objective is the same.
+    config["loss"]["weights"] = {{"local", 0}};
+    // The all-reduce sums in another order than autograd over the whole batch (float rounding,
+    // ~1e-7 relative). With Adam's eps ~ 0 the first update is lr·sign(g), which turns that
+    // rounding into ±lr for the gradients that are ~0; eps = 1 keeps the update proportional to
+    // the gradient, so the comparison measures the gradients the ranks agree on.
+    config["optimizer"] = {{"eps", 1.0}};
+    const std::string path = root + "/" + name + ".json";
+    std::ofstream(path) << config.dump(2);
+    return path;
+  };
+  const std::string single = write_config("single", 2), ranks = write_config("ranks", 1);
+  ASSERT_EQ(run_cli("--config " + single), 0);
+  const std::string port = std::to_string(20000 + ::getpid() % 20000);
+  ASSERT_EQ(std::system(("MASTER_PORT=" + port + " " + std::string(OMNIPOINT_CLI) + " train --config " + ranks +
+                         " --nproc 2 2>/dev/null").c_str()),
+            0);
+  const auto a = io::read_safetensors(root + "/single/model.safetensors", std::nullopt).tensors;
+  const auto b = io::read_safetensors(root + "/ranks/model.safetensors", std::nullopt).tensors;
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0;
+  for (const auto& [name, t] : a) worst = std::max(worst, (t - b.at(name)).abs().max().item<double>());
+  EXPECT_LE(worst, 1e-6);
+  // Only rank 0 wrote the log: one record per step.
+  EXPECT_EQ(losses_by_step(root + "/ranks/log.jsonl").size(), 5u);
+  fs::remove_all(root);
+}
+
 }  // namespace
 }  // namespace omnipoint::train

@@ -171,10 +171,17 @@ StepRecord Trainer::train_step() {
   if (finite) {
     losses.total.backward();
     if (reducer_) {
+      // A parameter has a gradient in the global batch when it has one on any rank (e.g. a
+      // condition branch used by some rank's items only): agree on that first, so that the
+      // ranks step exactly the parameters one process on the whole batch would step.
+      at::Tensor defined = at::empty({static_cast<int64_t>(parameters.size())}, at::kFloat);
+      for (size_t i = 0; i < parameters.size(); ++i) defined[i] = parameters[i].grad().defined() ? 1.0 : 0.0;
+      reducer_({defined});
       std::vector<at::Tensor> gradients;
-      for (at::Tensor& p : parameters) {
-        if (!p.grad().defined()) p.mutable_grad() = at::zeros_like(p);
-        gradients.push_back(p.grad());
+      for (size_t i = 0; i < parameters.size(); ++i) {
+        if (defined[i].item<float>() == 0.0f) continue;
+        if (!parameters[i].grad().defined()) parameters[i].mutable_grad() = at::zeros_like(parameters[i]);
+        gradients.push_back(parameters[i].grad());
       }
       reducer_(gradients);
     }
