@@ -4,7 +4,7 @@ set -euo pipefail
 
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev)
+          libopencv-dev libgloo-dev)
 if [[ "${1:-}" == "--tests" ]]; then
   # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/.
   packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy)

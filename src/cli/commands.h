@@ -14,5 +14,6 @@ void add_forward_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
 void add_reproject_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
+void add_train_command(CLI::App& app);
 
 }  // namespace omnipoint::cli
