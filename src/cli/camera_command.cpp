@@ -1,4 +1,5 @@
-// omnipoint camera rays|info: a camera's per-pixel rays, and a summary of the camera.
+// omnipoint camera rays|info|fit: a camera's per-pixel rays, a summary of the camera, and the
+// camera of a chosen model that best explains a ray map.
 #include <ATen/ATen.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -11,13 +12,9 @@
 #include "cli/commands.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/camera_info.h"
-#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/camera/fit.h"
+#include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
-
-#ifdef OMNIPOINT_WITH_OPENCV
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#endif
 
 namespace omnipoint::cli {
 namespace {
@@ -48,22 +45,9 @@ struct CameraOptions {
   }
 };
 
-// Rays (H, W, 3) as an RGB picture: each component from [-1, 1] to [0, 255]; invalid black.
+// Rays (H, W, 3) as an RGB picture: each component from [-1, 1] to [0, 1]; invalid black.
 void write_ray_png(const std::string& path, const camera::Rays& map) {
-#ifdef OMNIPOINT_WITH_OPENCV
-  const auto rgb = ((map.rays + 1) * 127.5).round().clamp(0, 255).to(at::kByte) *
-                   map.valid.unsqueeze(-1).to(at::kByte);
-  const auto bgr = rgb.flip({-1}).contiguous();
-  const cv::Mat image(static_cast<int>(bgr.size(0)), static_cast<int>(bgr.size(1)), CV_8UC3, bgr.data_ptr());
-  std::vector<uchar> encoded;
-  if (!cv::imencode(".png", image, encoded)) throw std::runtime_error(path + ": PNG encoding failed");
-  io::write_file_atomically(path, [&](std::ostream& out) {
-    out.write(reinterpret_cast<const char*>(encoded.data()), static_cast<std::streamsize>(encoded.size()));
-  });
-#else
-  (void)map;
-  throw std::invalid_argument(path + ": this build has no image output (built without OpenCV)");
-#endif
+  io::write_image_png(path, (map.rays + 1) * 0.5 * map.valid.unsqueeze(-1));
 }
 
 void add_rays_command(CLI::App& parent) {
@@ -104,13 +88,34 @@ void add_info_command(CLI::App& parent) {
   });
 }
 
+void add_fit_command(CLI::App& parent) {
+  auto* command = parent.add_subcommand("fit", "Fit a camera of a chosen model to a ray map (H x W x 3 .npy, zero "
+                                               "rays are invalid) and print it as JSON with its COLMAP spec");
+  auto rays_path = std::make_shared<std::string>();
+  auto model = std::make_shared<std::string>();
+  command->add_option("--rays", *rays_path, "Ray map .npy (H x W x 3), e.g. from `camera rays` or a prediction")->required();
+  command->add_option("--model", *model, "Camera model to fit, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE")->required();
+  command->callback([rays_path, model] {
+    const auto rays = io::read_npy(*rays_path);
+    if (rays.dim() != 3 || rays.size(2) != 3 || !at::isFloatingType(rays.scalar_type())) {
+      throw std::invalid_argument(*rays_path + ": expected a floating-point H x W x 3 ray map");
+    }
+    const auto valid = camera::length(rays.to(at::kDouble)) > 0.5;
+    const auto fitted = camera::fit_camera(*model, rays.size(1), rays.size(0), rays, valid);
+    auto info = nlohmann::json::parse(fitted.to_json());
+    info["spec"] = fitted.to_spec();
+    std::cout << info.dump(2) << "\n";
+  });
+}
+
 }  // namespace
 
 void add_camera_command(CLI::App& app) {
-  auto* camera = app.add_subcommand("camera", "Camera models: per-pixel rays and camera summaries");
+  auto* camera = app.add_subcommand("camera", "Camera models: per-pixel rays, camera summaries, fitting a camera to rays");
   camera->require_subcommand(1);
   add_rays_command(*camera);
   add_info_command(*camera);
+  add_fit_command(*camera);
 }
 
 }  // namespace omnipoint::cli

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "cli/commands.h"
-#include "omnipoint/geometry/point_rays.h"
+#include "omnipoint/geometry/points.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2.h"
@@ -61,7 +61,7 @@ void run_forward(const ForwardOptions& options) {
 
   c10::InferenceMode inference;
   const model::MoGe2Output output = model->forward(image, num_tokens);
-  const geometry::RaysAndDistance rays = geometry::rays_and_distance(output.points);
+  const geometry::RaysAndDistance rays = geometry::rays_from_points(output.points);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {
@@ -86,11 +86,15 @@ void add_forward_command(CLI::App& app) {
   command->add_option("--model", options->model_path, "Weights file (.safetensors with the config in its metadata)")
       ->required();
   command->add_option("--input", options->input_path, "Image array (.npy, float32, B×3×H×W)")->required();
-  command->add_option("--num-tokens", options->num_tokens,
-                      "Target number of ViT patch tokens (default: the top of the model's num_tokens_range)")
-      ->check(CLI::PositiveNumber);
+  CLI::Option* num_tokens = command->add_option(
+      "--num-tokens", options->num_tokens,
+      "Target number of ViT patch tokens (default: the top of the model's num_tokens_range)");
   command->add_option("--out", options->out_dir, "Output folder (created if missing)")->required();
-  command->callback([options] { run_forward(*options); });
+  command->callback([options, num_tokens] {
+    if (num_tokens->count() > 0 && options->num_tokens <= 0)
+      throw std::invalid_argument("--num-tokens must be a positive integer, got " + std::to_string(options->num_tokens));
+    run_forward(*options);
+  });
 }
 
 }  // namespace omnipoint::cli

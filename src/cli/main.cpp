@@ -11,8 +11,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
   omnipoint::cli::add_camera_command(app);
+  omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_metrics_command(app);
+  omnipoint::cli::add_reproject_command(app);
+  omnipoint::cli::add_synth_command(app);
+  omnipoint::cli::add_train_command(app);
 
   try {
     app.parse(argc, argv);

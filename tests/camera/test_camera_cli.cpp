@@ -108,8 +108,23 @@ TEST_F(CameraCli, InfoPrintsJson) {
   EXPECT_NEAR(pano["fov_deg"]["vertical"].get<double>(), 180, 1e-6);
 }
 
+TEST_F(CameraCli, FitRecoversTheCameraOfARayMap) {
+  const std::string spec = "OPENCV 96 72 80 81 48.5 35.5 -0.2 0.05 0.001 -0.001";
+  ASSERT_EQ(run("camera rays --camera '" + spec + "' --out " + path("rays.npy")).status, 0);
+  const auto result = run("camera fit --rays " + path("rays.npy") + " --model OPENCV");
+  ASSERT_EQ(result.status, 0) << result.err;
+  const auto fitted = parse_camera(nlohmann::json::parse(result.out)["spec"].get<std::string>());
+  const auto truth = parse_camera(spec);
+  ASSERT_EQ(fitted.model_name(), "OPENCV");
+  // The ray map is float32: parameters to about float precision.
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 2e-3);
+  for (std::size_t i = 4; i < 8; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 1e-4);
+  expect_failure("camera fit --rays " + path("rays.npy") + " --model NOPE", "unknown camera model");
+  expect_failure("camera fit --rays " + path("missing.npy") + " --model OPENCV", "missing.npy");
+}
+
 TEST_F(CameraCli, HelpEverywhere) {
-  for (const std::string command : {"--help", "camera --help", "camera rays --help", "camera info --help"}) {
+  for (const std::string command : {"--help", "camera --help", "camera rays --help", "camera info --help", "camera fit --help"}) {
     const auto result = run(command);
     EXPECT_EQ(result.status, 0) << command;
     EXPECT_NE(result.out.find("Usage"), std::string::npos) << command;

@@ -20,8 +20,7 @@ double max_ray_difference(const Rays& a, const Rays& b) {
 
 class ResizeCropTest : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(ResizeCropTest, ResizedSeesTheSameRays) {
-  const auto camera = parse_camera(GetParam());
+void expect_resized_sees_the_same_rays(const Camera& camera) {
   // Uniform resize by 3/4 (sizes of the samples are multiples of 4).
   const auto resized = camera.resized(camera.width() * 3 / 4, camera.height() * 3 / 4);
   const auto pixels = resized.pixel_centres(at::kDouble);
@@ -31,14 +30,20 @@ TEST_P(ResizeCropTest, ResizedSeesTheSameRays) {
   EXPECT_LE(max_ray_difference(resized.unproject(pixels), camera.unproject(original)), 1e-9);
 }
 
-TEST_P(ResizeCropTest, CroppedSeesTheSameRays) {
-  const auto camera = parse_camera(GetParam());
+void expect_cropped_sees_the_same_rays(const Camera& camera) {
   const int64_t x0 = camera.width() / 5, y0 = camera.height() / 7;
   const auto cropped = camera.cropped(x0, y0, camera.width() / 2, camera.height() / 3);
   EXPECT_EQ(cropped.width(), camera.width() / 2);
   const auto pixels = cropped.pixel_centres(at::kDouble);
   const auto original = pixels + at::tensor({double(x0), double(y0)}, at::kDouble);
   EXPECT_LE(max_ray_difference(cropped.unproject(pixels), camera.unproject(original)), 1e-9);
+}
+
+// Both in one test: every test is a process, and LibTorch takes a while to load.
+TEST_P(ResizeCropTest, SeeTheSameRays) {
+  const auto camera = parse_camera(GetParam());
+  expect_resized_sees_the_same_rays(camera);
+  expect_cropped_sees_the_same_rays(camera);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllModels, ResizeCropTest, ::testing::ValuesIn(testing::sample_camera_specs()),

@@ -1,5 +1,6 @@
 // Camera specs: every accepted form, and every error path with a message naming the model
 // (or the input) and what it expects.
+#include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -78,6 +79,13 @@ TEST(CameraSpec, CentredPinhole) {
   EXPECT_EQ(camera.params()[3], 240);
   expect_error<std::invalid_argument>([] { centred_pinhole(180, 640, 480); }, {"--fov", "(0, 180)"});
   expect_error<std::invalid_argument>([] { centred_pinhole(0, 640, 480); }, {"--fov"});
+}
+
+TEST(CameraSpec, RejectsBadTensorInput) {
+  const auto camera = parse_camera("PINHOLE 64 48 50 50 32 24");
+  expect_error<std::invalid_argument>([&] { camera.unproject(at::zeros({4, 2}, at::kLong)); }, {"floating-point"});
+  expect_error<std::invalid_argument>([&] { camera.unproject(at::zeros({4, 3})); }, {"(..., 2)"});
+  expect_error<std::invalid_argument>([&] { camera.project(at::zeros({4, 2})); }, {"(..., 3)"});
 }
 
 TEST(CameraSpec, WrongParameterCount) {

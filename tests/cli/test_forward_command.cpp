@@ -92,6 +92,7 @@ TEST_F(ForwardCommand, RefusesBadFilesWithOneLine) {
 TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
   const std::string input = kFixture + "/input.npy";
   expect_refusal("--model " + kModel + " --input " + kFixture + "/expected_points.npy", "(B,3,H,W)");
+  expect_refusal("--model " + kModel + " --input " + input + " --num-tokens 0", "--num-tokens");
 
   const std::string too_bright = (dir_ / "too_bright.npy").string();
   omnipoint::io::write_npy(too_bright, read_npy(input) * 2);

@@ -40,7 +40,19 @@ at::Tensor Camera::params_tensor(at::TensorOptions options) const {
   return at::tensor(params_, at::TensorOptions().dtype(at::kDouble)).to(options);
 }
 
+namespace {
+
+void require_floating(const at::Tensor& input, const char* what) {
+  if (!at::isFloatingType(input.scalar_type())) {
+    throw std::invalid_argument(std::string(what) + " must be a floating-point tensor (float32 or float64), got " +
+                                std::string(c10::toString(input.scalar_type())));
+  }
+}
+
+}  // namespace
+
 Rays Camera::unproject(const at::Tensor& pixels) const {
+  require_floating(pixels, "Camera::unproject: pixels");
   if (pixels.dim() < 1 || pixels.size(-1) != 2) {
     throw std::invalid_argument("Camera::unproject: pixels must have shape (..., 2), got " +
                                 std::to_string(pixels.dim() ? pixels.size(-1) : 0) + " in the last dimension");
@@ -49,6 +61,7 @@ Rays Camera::unproject(const at::Tensor& pixels) const {
 }
 
 Pixels Camera::project(const at::Tensor& points) const {
+  require_floating(points, "Camera::project: points");
   if (points.dim() < 1 || points.size(-1) != 3) {
     throw std::invalid_argument("Camera::project: points must have shape (..., 3), got " +
                                 std::to_string(points.dim() ? points.size(-1) : 0) + " in the last dimension");

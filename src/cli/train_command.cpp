@@ -1,0 +1,171 @@
+// omnipoint train: runs the training loop of a JSON config (omnipoint/train/train_config.h),
+// writing checkpoints, a JSON-lines log and a progress line; --resume continues a run exactly.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/omnipoint_weights.h"
+#include "omnipoint/train/checkpoint.h"
+#include "omnipoint/train/distributed.h"
+#include "omnipoint/train/launcher.h"
+#include "omnipoint/train/trainer.h"
+
+namespace omnipoint::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct TrainOptions {
+  std::string config_path;
+  std::string resume;
+  int64_t stop_after = 0;  // 0: run to the end
+  int64_t nproc = 1;       // > 1: launch that many local ranks
+};
+
+std::string clock_text(double seconds) {
+  const auto total = static_cast<long long>(seconds + 0.5);
+  char text[32];
+  std::snprintf(text, sizeof(text), "%lld:%02lld:%02lld", total / 3600, total / 60 % 60, total % 60);
+  return text;
+}
+
+// Keeps the log records of steps <= step (a resumed run rewrites what followed its checkpoint).
+void truncate_log(const std::string& path, int64_t step) {
+  if (!fs::exists(path)) return;
+  std::istringstream lines(io::read_file(path));
+  std::string kept, line;
+  while (std::getline(lines, line)) {
+    if (line.empty()) continue;
+    const json record = json::parse(line, nullptr, false);
+    if (!record.is_discarded() && record.value("step", int64_t{0}) <= step) kept += line + "\n";
+  }
+  io::write_file_atomically(path, [&](std::ostream& out) { out << kept; });
+}
+
+void append_line(const std::string& path, const json& record) {
+  std::ofstream out(path, std::ios::app);
+  out << record.dump() << "\n";
+  if (!out.flush()) throw std::runtime_error("log " + path + ": cannot append to it");
+}
+
+void run_train(const TrainOptions& options) {
+  json config_json;
+  try {
+    config_json = json::parse(io::read_file(options.config_path));
+  } catch (const json::exception& e) {
+    throw std::invalid_argument("config " + options.config_path + ": not valid JSON (" + e.what() + ")");
+  }
+  const train::TrainConfig config = train::TrainConfig::from_json(config_json);
+
+  train::TrainState resumed;
+  const bool resume = !options.resume.empty();
+  if (resume) resumed = train::read_checkpoint(options.resume);
+  model::OmniPointModel network = resume ? model::load_omnipoint_model(resumed.model, resumed.model_metadata)
+                                         : train::build_model(config);
+  // RANK, WORLD_SIZE, ... from a launcher (docs/TRAINING.md); a single process without them.
+  const train::DistributedContext distributed = train::DistributedContext::from_environment();
+  train::Trainer trainer(config, network, distributed);
+  if (resume) trainer.restore(resumed);
+  const bool writer = distributed.is_main();  // only rank 0 writes logs and files
+
+  const fs::path out_dir(config.output_dir);
+  const std::string checkpoint_dir = (out_dir / "checkpoints").string();
+  const std::string log_path = (out_dir / "log.jsonl").string();
+  if (writer) {
+    fs::create_directories(checkpoint_dir);
+    if (resume) truncate_log(log_path, trainer.step());
+    else if (fs::exists(log_path)) fs::remove(log_path);
+  }
+
+  const int64_t total = config.total_steps();
+  const int64_t end = options.stop_after > 0 ? std::min(total, options.stop_after) : total;
+  const auto start = std::chrono::steady_clock::now();
+  const int64_t first = trainer.step();
+  int64_t images = 0;
+  bool saved = false;
+  while (trainer.step() < end) {
+    const train::StepRecord record = trainer.train_step();
+    images += record.images;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double rate = images / std::max(elapsed, 1e-9);
+    const double eta = elapsed / static_cast<double>(record.step - first) * static_cast<double>(total - record.step);
+    saved = false;
+    if (writer) {
+      append_line(log_path, {{"step", record.step}, {"stage", record.stage}, {"loss", record.loss},
+                             {"terms", record.terms}, {"grad_norm", record.grad_norm}, {"skipped", record.skipped},
+                             {"lr_backbone", record.lr_backbone}, {"lr_heads", record.lr_heads},
+                             {"num_tokens", record.num_tokens}, {"images_per_s", rate}});
+      if (record.skipped)
+        std::fprintf(stderr, "train: step %lld skipped: non-finite loss or gradients\n",
+                     static_cast<long long>(record.step));
+      if (record.step % config.log_every == 0 || record.step == end)
+        std::fprintf(stderr, "train: step %lld/%lld (stage %d) loss %.5g  %.2f img/s  ETA %s\n",
+                     static_cast<long long>(record.step), static_cast<long long>(total), record.stage, record.loss,
+                     rate, clock_text(eta).c_str());
+      if (config.checkpoint_every > 0 && record.step % config.checkpoint_every == 0) {
+        train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
+        saved = true;
+      }
+    }
+    if (config.eval_every > 0 && record.step % config.eval_every == 0) {
+      const std::map<std::string, double> evaluation = trainer.evaluate();  // a collective: on every rank
+      if (writer) append_line(log_path, {{"step", record.step}, {"eval", evaluation}});
+    }
+  }
+  if (!writer) return;
+  if (!saved) train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
+  if (trainer.done()) {
+    const auto metadata = model::omnipoint_metadata(network->config());
+    io::write_safetensors((out_dir / "model.safetensors").string(), trainer.state().model, metadata);
+    io::write_safetensors((out_dir / "model_ema.safetensors").string(), trainer.ema(), metadata);
+    std::fprintf(stderr, "train: done; weights in %s\n", (out_dir / "model.safetensors").string().c_str());
+  }
+}
+
+}  // namespace
+
+void add_train_command(CLI::App& app) {
+  auto options = std::make_shared<TrainOptions>();
+  CLI::App* command = app.add_subcommand(
+      "train", "Train an OmniPoint model from a JSON config (stages, data, losses, optimiser); "
+               "checkpoints and log.jsonl go to the config's output_dir");
+  command->add_option("--config", options->config_path, "Training config (.json)")->required();
+  command->add_option("--resume", options->resume,
+                      "Continue from a checkpoint: a run's output_dir, its checkpoints/ folder or one step folder");
+  command->add_option("--stop-after", options->stop_after,
+                      "Stop after this many steps in total (with a checkpoint), as an interruption would")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--nproc", options->nproc,
+                      "Data-parallel ranks to start on this machine (Gloo; the config's batch_size is per rank)")
+      ->check(CLI::PositiveNumber);
+  command->callback([options] {
+    // --nproc N (not already inside a launched job): N copies of this command as the ranks of
+    // one data-parallel job on this machine, as torchrun would start them.
+    if (options->nproc == 1 || std::getenv("WORLD_SIZE") != nullptr) return run_train(*options);
+    std::vector<std::string> arguments{"train", "--config", options->config_path};
+    if (!options->resume.empty()) arguments.insert(arguments.end(), {"--resume", options->resume});
+    if (options->stop_after > 0)
+      arguments.insert(arguments.end(), {"--stop-after", std::to_string(options->stop_after)});
+    const int code = train::launch_local(static_cast<int>(options->nproc), arguments);
+    if (code != 0)
+      throw std::runtime_error("train --nproc " + std::to_string(options->nproc) + ": a rank exited with code " +
+                               std::to_string(code));
+  });
+}
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,276 @@
+#include "omnipoint/eval/runner.h"
+
+#include <ATen/ATen.h>
+#include <ATen/CPUGeneratorImpl.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <set>
+#include <stdexcept>
+
+#include "omnipoint/data/dataset_index.h"
+#include "omnipoint/geometry/sparse_sampling.h"
+
+namespace omnipoint::eval {
+
+const std::array<Split, 3> kSplits{Split::kSmallFov, Split::kLargeFov, Split::kPanorama};
+
+std::string split_name(Split split) {
+  switch (split) {
+    case Split::kSmallFov: return "S.FoV";
+    case Split::kLargeFov: return "L.FoV";
+    case Split::kPanorama: return "360°";
+  }
+  return "";
+}
+
+Split camera_split(const camera::Camera& camera) {
+  static const std::set<std::string> wide{
+      "OPENCV_FISHEYE", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE",
+      "RAD_TAN_THIN_PRISM_FISHEYE", "FOV", "MEI", "UCM", "EUCM", "DOUBLE_SPHERE"};
+  if (camera.model_name() == "EQUIRECTANGULAR") return Split::kPanorama;
+  return wide.count(camera.model_name()) ? Split::kLargeFov : Split::kSmallFov;
+}
+
+std::string Mode::name() const {
+  if (intrinsics && sparse_depth) return "+K+D";
+  if (intrinsics) return "+K";
+  if (sparse_depth) return "+D";
+  return "none";
+}
+
+std::vector<Mode> evaluation_modes(bool intrinsics, bool sparse_depth) {
+  std::vector<Mode> modes{Mode{}};
+  if (intrinsics) modes.push_back({true, false});
+  if (sparse_depth) modes.push_back({false, true});
+  if (intrinsics && sparse_depth) modes.push_back({true, true});
+  return modes;
+}
+
+uint64_t sample_seed(const std::string& id, uint64_t seed) {
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a: stable across platforms and runs
+  for (const unsigned char c : id) hash = (hash ^ c) * 1099511628211ull;
+  return hash ^ (seed * 0x9E3779B97F4A7C15ull);
+}
+
+Conditions make_conditions(const data::Sample& sample, const Mode& mode, int64_t sparse_depth_points,
+                           uint64_t seed) {
+  Conditions conditions;
+  if (mode.intrinsics) conditions.rays = sample.camera.ray_map(at::kFloat).rays;
+  if (mode.sparse_depth) {
+    auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
+    conditions.sparse_depth =
+        geometry::sample_uniform(sample.distance, sample.mask, sparse_depth_points, generator).depth;
+  }
+  return conditions;
+}
+
+Metrics score_sample(const data::Sample& sample, Split split, const GeometryPrediction& prediction) {
+  const auto height = sample.distance.size(0), width = sample.distance.size(1);
+  const auto expect = [&](const at::Tensor& t, std::vector<int64_t> shape, const char* what) {
+    if (!t.defined() || t.sizes() != at::IntArrayRef(shape))
+      throw std::invalid_argument(std::string("prediction ") + what + ": expected shape " +
+                                  c10::str(at::IntArrayRef(shape)) + ", got " +
+                                  (t.defined() ? c10::str(t.sizes()) : std::string("none")));
+  };
+  expect(prediction.rays, {height, width, 3}, "rays");
+  expect(prediction.distance, {height, width}, "distance");
+
+  const auto ray_map = sample.camera.ray_map(at::kFloat);
+  GroundTruth gt;
+  gt.mask = sample.mask & ray_map.valid;
+  gt.points = sample.distance.unsqueeze(-1) * ray_map.rays;
+  gt.depth = split == Split::kSmallFov ? gt.points.select(-1, 2) : sample.distance;
+  gt.is_metric = sample.metric;
+
+  Prediction pred;
+  pred.points = (prediction.metric_scale * prediction.distance.to(at::kFloat)).unsqueeze(-1) *
+                prediction.rays.to(at::kFloat);
+  pred.depth = split == Split::kSmallFov ? pred.points.select(-1, 2)
+                                         : at::linalg_vector_norm(pred.points, 2, {-1});
+  pred.is_metric = prediction.is_metric;
+  return compute_metrics(pred, gt);
+}
+
+namespace {
+
+nlohmann::json number(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+
+nlohmann::json metrics_json(const Metrics& metrics) {
+  nlohmann::json entries = nlohmann::json::object();
+  for (const auto& [name, score] : metrics.entries)
+    entries[name] = {{"rel", number(score.rel)}, {"delta1", number(score.delta1)}};
+  return entries;
+}
+
+}  // namespace
+
+RunResult run_benchmark(const Predictor& predictor, const std::vector<std::string>& datasets,
+                        const RunOptions& options) {
+  if (datasets.empty()) throw std::invalid_argument("no dataset given");
+  if (options.sparse_depth_points < 1)
+    throw std::invalid_argument("sparse depth points " + std::to_string(options.sparse_depth_points) +
+                                ": expected >= 1");
+  std::vector<std::pair<std::string, data::DatasetItem>> items;
+  for (const auto& root : datasets)
+    for (auto& item : data::list_dataset(root)) items.emplace_back(root, std::move(item));
+
+  RunResult result;
+  Summary& summary = result.summary;
+  summary.model = predictor.name;
+  summary.datasets = datasets;
+  summary.samples_total = static_cast<int64_t>(items.size());
+  std::vector<Mode> modes;
+  for (const Mode& mode : options.modes) {
+    const bool ok = (!mode.intrinsics || predictor.accepts_intrinsics) &&
+                    (!mode.sparse_depth || predictor.accepts_sparse_depth);
+    (ok ? summary.modes : summary.modes_not_supported).push_back(mode.name());
+    if (ok) modes.push_back(mode);
+    if (mode.sparse_depth && ok) summary.sparse_depth_points = options.sparse_depth_points;
+  }
+
+  std::map<std::string, std::map<std::string, std::vector<Metrics>>> per_split;
+  std::map<std::string, int64_t> split_samples;
+  const auto start = std::chrono::steady_clock::now();
+  const auto skip = [&](const std::string& dataset, const std::string& id, const std::string& reason,
+                        const std::string& error) {
+    ++summary.skipped[reason];
+    result.records.push_back(
+        nlohmann::json{{"dataset", dataset}, {"id", id}, {"skipped", reason}, {"error", error}}.dump());
+  };
+
+  for (size_t index = 0; index < items.size(); ++index) {
+    const auto& [root, item] = items[index];
+    std::optional<EvalSample> read;
+    try {
+      data::Sample sample = data::read_dataset_item(item, options.moge_metric);
+      const Split split = camera_split(sample.camera);
+      read = EvalSample{root, item.id, split, std::move(sample)};
+    } catch (const std::exception& e) {
+      skip(root, item.id, "unreadable sample", e.what());
+    }
+    if (read) {
+      const EvalSample& sample = *read;
+      const std::string split = split_name(sample.split);
+      std::vector<std::pair<std::string, Metrics>> scored;
+      std::vector<std::string> lines;
+      try {
+        for (const Mode& mode : modes) {
+          const auto t0 = std::chrono::steady_clock::now();
+          const Conditions conditions = make_conditions(
+              sample.sample, mode, options.sparse_depth_points, sample_seed(item.id, options.seed));
+          Metrics metrics = score_sample(sample.sample, sample.split, predictor.predict(sample, conditions));
+          const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          lines.push_back(nlohmann::json{{"dataset", root},
+                                         {"id", item.id},
+                                         {"split", split},
+                                         {"mode", mode.name()},
+                                         {"camera", sample.sample.camera.model_name()},
+                                         {"valid_pixels", metrics.num_valid_pixels},
+                                         {"seconds", seconds},
+                                         {"entries", metrics_json(metrics)},
+                                         {"warnings", metrics.warnings}}
+                              .dump());
+          scored.emplace_back(mode.name(), std::move(metrics));
+        }
+      } catch (const MissingPrediction& e) {
+        skip(root, item.id, "missing prediction", e.what());
+        scored.clear();
+      } catch (const std::exception& e) {
+        skip(root, item.id, "prediction failed", e.what());
+        scored.clear();
+      }
+      if (!scored.empty()) {
+        ++summary.samples_evaluated;
+        ++split_samples[split];
+        for (auto& line : lines) result.records.push_back(std::move(line));
+        for (auto& [mode, metrics] : scored) per_split[split][mode].push_back(std::move(metrics));
+      }
+    }
+    if (options.progress)
+      options.progress(static_cast<int64_t>(index + 1), summary.samples_total,
+                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+
+  for (const auto& [split, by_mode] : per_split)
+    for (const auto& [mode, instances] : by_mode)
+      summary.scores[split][mode] = SplitScores{split_samples[split], average_metrics(instances)};
+  return result;
+}
+
+std::string summary_json(const Summary& summary) {
+  nlohmann::json scores = nlohmann::json::object();
+  for (const auto& [split, by_mode] : summary.scores) {
+    for (const auto& [mode, split_scores] : by_mode) {
+      nlohmann::json entries = nlohmann::json::object();
+      for (const auto& [name, score] : split_scores.entries)
+        entries[name] = {{"rel", number(score.rel)},
+                         {"delta1", number(score.delta1)},
+                         {"count", score.count},
+                         {"excluded", score.excluded}};
+      scores[split][mode] = {{"samples", split_scores.samples}, {"entries", entries}};
+    }
+  }
+  const nlohmann::json json{{"model", summary.model},
+                            {"datasets", summary.datasets},
+                            {"modes", summary.modes},
+                            {"modes_not_supported", summary.modes_not_supported},
+                            {"sparse_depth_points", summary.sparse_depth_points},
+                            {"samples_total", summary.samples_total},
+                            {"samples_evaluated", summary.samples_evaluated},
+                            {"skipped", summary.skipped},
+                            {"scores", scores}};
+  return json.dump(2) + "\n";
+}
+
+std::string markdown_table(const std::vector<Summary>& summaries) {
+  std::vector<std::string> splits;
+  for (const Split split : kSplits)
+    for (const Summary& summary : summaries)
+      if (summary.scores.count(split_name(split))) {
+        splits.push_back(split_name(split));
+        break;
+      }
+  std::string header = "| Model | Mode |", rule = "|---|---|";
+  for (const auto& split : splits) {
+    for (const char* column : {"depth Rel", "depth δ1", "points Rel", "points δ1", "metric δ1"}) {
+      header += " " + split + " " + column + " |";
+      rule += "---|";
+    }
+  }
+  std::string table = header + "\n" + rule + "\n";
+  const auto cell = [](const std::map<std::string, AveragedScore>* entries, const char* entry, bool rel) {
+    if (!entries || !entries->count(entry)) return std::string("–");
+    const AveragedScore& score = entries->at(entry);
+    const double value = 100.0 * (rel ? score.rel : score.delta1);
+    if (!std::isfinite(value)) return std::string("–");
+    char text[32];
+    std::snprintf(text, sizeof text, rel ? "%.2f" : "%.1f", value);
+    return std::string(text);
+  };
+  for (const Summary& summary : summaries) {
+    for (const auto& mode : summary.modes) {
+      std::string row = "| " + summary.model + " | " + mode + " |";
+      for (const auto& split : splits) {
+        const std::map<std::string, AveragedScore>* entries = nullptr;
+        const auto by_split = summary.scores.find(split);
+        if (by_split != summary.scores.end()) {
+          const auto by_mode = by_split->second.find(mode);
+          if (by_mode != by_split->second.end()) entries = &by_mode->second.entries;
+        }
+        row += " " + cell(entries, "depth_scale_invariant", true) + " | " +
+               cell(entries, "depth_scale_invariant", false) + " | " +
+               cell(entries, "points_scale_invariant", true) + " | " +
+               cell(entries, "points_scale_invariant", false) + " | " +
+               cell(entries, "points_metric", false) + " |";
+      }
+      table += row + "\n";
+    }
+  }
+  return table;
+}
+
+}  // namespace omnipoint::eval

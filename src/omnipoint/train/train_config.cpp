@@ -1,0 +1,197 @@
+#include "omnipoint/train/train_config.h"
+
+#include <set>
+#include <stdexcept>
+
+namespace omnipoint::train {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) {
+  throw std::invalid_argument("training config: " + where + ": " + what);
+}
+
+const json& object_at(const json& parent, const char* key, const std::string& where) {
+  static const json kEmpty = json::object();
+  if (!parent.contains(key)) return kEmpty;
+  const json& value = parent.at(key);
+  if (!value.is_object()) fail(where + "." + key, "expected a JSON object");
+  return value;
+}
+
+void check_keys(const json& object, const std::set<std::string>& allowed, const std::string& where) {
+  for (const auto& item : object.items())
+    if (!allowed.count(item.key())) fail(where, "unknown key \"" + item.key() + "\"");
+}
+
+template <typename T>
+T value_or(const json& object, const char* key, T fallback, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  try {
+    return object.at(key).get<T>();
+  } catch (const json::exception&) {
+    fail(where + "." + key, "has the wrong type (" + object.at(key).dump() + ")");
+  }
+}
+
+template <typename T>
+std::array<T, 2> pair_or(const json& object, const char* key, std::array<T, 2> fallback, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  const json& value = object.at(key);
+  if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
+    fail(where + "." + key, "expected an array of two numbers");
+  return {value[0].get<T>(), value[1].get<T>()};
+}
+
+void require(bool ok, const std::string& where, const std::string& what) {
+  if (!ok) fail(where, what);
+}
+
+}  // namespace
+
+int64_t TrainConfig::total_steps() const {
+  int64_t total = 0;
+  for (const StageConfig& stage : stages) total += stage.steps;
+  return total;
+}
+
+TrainConfig TrainConfig::from_json(const json& root) {
+  if (!root.is_object()) fail("file", "expected a JSON object");
+  check_keys(root, {"output_dir", "seed", "threads", "model", "init", "data", "conditions", "augment", "loss",
+                    "optimizer", "ema", "stages", "checkpoint_every", "log_every", "eval_every", "eval_batches",
+                    "max_nonfinite_steps"},
+             "config");
+  TrainConfig c;
+  c.output_dir = value_or<std::string>(root, "output_dir", c.output_dir, "config");
+  c.seed = value_or<uint64_t>(root, "seed", c.seed, "config");
+  c.threads = value_or<int>(root, "threads", c.threads, "config");
+  require(c.threads >= 1, "threads", "must be at least 1");
+  if (root.contains("model")) c.model = object_at(root, "model", "config");
+
+  const json& init = object_at(root, "init", "config");
+  check_keys(init, {"from", "path", "output"}, "init");
+  c.init_from = value_or<std::string>(init, "from", c.init_from, "init");
+  c.init_path = value_or<std::string>(init, "path", "", "init");
+  c.init_output = value_or<std::string>(init, "output", c.init_output, "init");
+  require(c.init_from == "scratch" || c.init_from == "dinov2" || c.init_from == "moge2" || c.init_from == "omnipoint",
+          "init.from", "expected scratch, dinov2, moge2 or omnipoint, got \"" + c.init_from + "\"");
+  require(c.init_from == "scratch" || !c.init_path.empty(), "init.path", "required to initialise from " + c.init_from);
+  require((c.init_from != "scratch" && c.init_from != "dinov2") || !c.model.is_null(), "model",
+          "required (the network configuration) to initialise from " + c.init_from);
+
+  const json& data = object_at(root, "data", "config");
+  check_keys(data, {"batch_size", "image_size", "num_tokens", "datasets"}, "data");
+  c.batch_size = value_or<int64_t>(data, "batch_size", c.batch_size, "data");
+  require(c.batch_size >= 1, "data.batch_size", "must be at least 1");
+  const auto size = pair_or<int64_t>(data, "image_size", {c.width, c.height}, "data");
+  c.width = size[0];
+  c.height = size[1];
+  require(c.width >= 2 && c.height >= 2, "data.image_size", "must be [width, height], at least 2 each");
+  c.num_tokens = pair_or<int64_t>(data, "num_tokens", c.num_tokens, "data");
+  require(c.num_tokens[0] >= 1 && c.num_tokens[0] <= c.num_tokens[1], "data.num_tokens", "must be [min, max], 1 <= min <= max");
+  if (!data.contains("datasets") || !data.at("datasets").is_array() || data.at("datasets").empty())
+    fail("data.datasets", "expected a non-empty array of data sources");
+  for (const json& entry : data.at("datasets")) {
+    const std::string where = "data.datasets[" + std::to_string(c.datasets.size()) + "]";
+    if (!entry.is_object()) fail(where, "expected a JSON object");
+    check_keys(entry, {"weight", "synth", "folders"}, where);
+    DatasetSource source;
+    source.weight = value_or<double>(entry, "weight", 1.0, where);
+    require(source.weight > 0, where + ".weight", "must be positive");
+    require(entry.contains("synth") != entry.contains("folders"), where, "needs exactly one of \"synth\" or \"folders\"");
+    if (entry.contains("synth")) {
+      const json& synth = object_at(entry, "synth", where);
+      check_keys(synth, {"scenes", "cameras"}, where + ".synth");
+      source.synth = true;
+      source.synth_source.scenes = value_or<std::vector<std::string>>(synth, "scenes", {"indoor", "outdoor", "object"}, where + ".synth");
+      source.synth_source.cameras = value_or<std::vector<std::string>>(synth, "cameras", {}, where + ".synth");
+      require(!source.synth_source.scenes.empty() && !source.synth_source.cameras.empty(), where + ".synth",
+              "needs non-empty \"scenes\" and \"cameras\"");
+    } else {
+      source.folders = value_or<std::string>(entry, "folders", "", where);
+    }
+    c.datasets.push_back(source);
+  }
+
+  const json& conditions = object_at(root, "conditions", "config");
+  check_keys(conditions, {"probability", "sparse_ratio"}, "conditions");
+  c.condition_probability = value_or<double>(conditions, "probability", c.condition_probability, "conditions");
+  require(c.condition_probability >= 0 && c.condition_probability <= 1, "conditions.probability", "must lie in [0, 1]");
+  c.sparse_ratio = pair_or<double>(conditions, "sparse_ratio", c.sparse_ratio, "conditions");
+  require(c.sparse_ratio[0] > 0 && c.sparse_ratio[0] <= c.sparse_ratio[1] && c.sparse_ratio[1] <= 1,
+          "conditions.sparse_ratio", "must be [min, max] with 0 < min <= max <= 1");
+
+  const json& augment = object_at(root, "augment", "config");
+  check_keys(augment, {"p2a", "a2p"}, "augment");
+  c.p2a = value_or<bool>(augment, "p2a", false, "augment");
+  c.a2p = value_or<bool>(augment, "a2p", false, "augment");
+  // The bidirectional augmentation lives in the augment layer, which this build does not have.
+  if (c.p2a || c.a2p)
+    fail(c.p2a ? "augment.p2a" : "augment.a2p",
+         "not available: this build has no augment layer (Perspective-to-Any / Any-to-Perspective); set it to false");
+
+  const json& loss = object_at(root, "loss", "config");
+  check_keys(loss, {"point_loss", "align_trunc", "weights", "local"}, "loss");
+  c.loss.point_loss = parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
+  c.loss.align_trunc = value_or<double>(loss, "align_trunc", c.loss.align_trunc, "loss");
+  const json& weights = object_at(loss, "weights", "loss");
+  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask"}, "loss.weights");
+  LossWeights& w = c.loss.weights;
+  w.point = value_or<double>(weights, "point", w.point, "loss.weights");
+  w.ray = value_or<double>(weights, "ray", w.ray, "loss.weights");
+  w.metric = value_or<double>(weights, "metric", w.metric, "loss.weights");
+  w.normal = value_or<double>(weights, "normal", w.normal, "loss.weights");
+  w.local = value_or<double>(weights, "local", w.local, "loss.weights");
+  w.mask = value_or<double>(weights, "mask", w.mask, "loss.weights");
+  const json& local = object_at(loss, "local", "loss");
+  check_keys(local, {"levels", "patches_per_item", "min_points"}, "loss.local");
+  c.loss.local.levels = value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");
+  c.loss.local.patches_per_item = value_or<int64_t>(local, "patches_per_item", c.loss.local.patches_per_item, "loss.local");
+  c.loss.local.min_points = value_or<int64_t>(local, "min_points", c.loss.local.min_points, "loss.local");
+  for (const int64_t level : c.loss.local.levels) require(level > 0, "loss.local.levels", "must be positive");
+  require(c.loss.local.patches_per_item >= 1, "loss.local.patches_per_item", "must be at least 1");
+
+  const json& optimizer = object_at(root, "optimizer", "config");
+  check_keys(optimizer, {"weight_decay", "betas", "eps", "grad_clip"}, "optimizer");
+  c.weight_decay = value_or<double>(optimizer, "weight_decay", c.weight_decay, "optimizer");
+  c.betas = pair_or<double>(optimizer, "betas", c.betas, "optimizer");
+  c.eps = value_or<double>(optimizer, "eps", c.eps, "optimizer");
+  c.grad_clip = value_or<double>(optimizer, "grad_clip", c.grad_clip, "optimizer");
+  require(c.grad_clip >= 0, "optimizer.grad_clip", "must be >= 0 (0: no clipping)");
+  const json& ema = object_at(root, "ema", "config");
+  check_keys(ema, {"decay"}, "ema");
+  c.ema_decay = value_or<double>(ema, "decay", c.ema_decay, "ema");
+  require(c.ema_decay >= 0 && c.ema_decay < 1, "ema.decay", "must lie in [0, 1)");
+
+  if (!root.contains("stages") || !root.at("stages").is_array() || root.at("stages").empty())
+    fail("stages", "expected a non-empty array of training stages");
+  for (const json& entry : root.at("stages")) {
+    const std::string where = "stages[" + std::to_string(c.stages.size()) + "]";
+    if (!entry.is_object()) fail(where, "expected a JSON object");
+    check_keys(entry, {"stage", "steps", "lr_backbone", "lr_heads", "decay_every", "decay_factor"}, where);
+    StageConfig stage;
+    stage.stage = value_or<int>(entry, "stage", stage.stage, where);
+    require(stage.stage >= 1 && stage.stage <= 3, where + ".stage", "must be 1, 2 or 3");
+    stage.steps = value_or<int64_t>(entry, "steps", 0, where);
+    require(stage.steps >= 1, where + ".steps", "must be at least 1");
+    stage.lr_backbone = value_or<double>(entry, "lr_backbone", stage.lr_backbone, where);
+    stage.lr_heads = value_or<double>(entry, "lr_heads", stage.lr_heads, where);
+    stage.decay_every = value_or<int64_t>(entry, "decay_every", stage.decay_every, where);
+    stage.decay_factor = value_or<double>(entry, "decay_factor", stage.decay_factor, where);
+    require(stage.lr_backbone >= 0 && stage.lr_heads >= 0, where, "learning rates must be >= 0");
+    require(stage.decay_every >= 0, where + ".decay_every", "must be >= 0");
+    c.stages.push_back(stage);
+  }
+  c.checkpoint_every = value_or<int64_t>(root, "checkpoint_every", c.checkpoint_every, "config");
+  c.log_every = value_or<int64_t>(root, "log_every", c.log_every, "config");
+  c.eval_every = value_or<int64_t>(root, "eval_every", c.eval_every, "config");
+  c.eval_batches = value_or<int64_t>(root, "eval_batches", c.eval_batches, "config");
+  c.max_nonfinite_steps = value_or<int64_t>(root, "max_nonfinite_steps", c.max_nonfinite_steps, "config");
+  require(c.checkpoint_every >= 0 && c.log_every >= 1 && c.eval_every >= 0 && c.eval_batches >= 1, "config",
+          "checkpoint_every/eval_every must be >= 0, log_every/eval_batches >= 1");
+  require(c.max_nonfinite_steps >= 1, "max_nonfinite_steps", "must be at least 1");
+  return c;
+}
+
+}  // namespace omnipoint::train

@@ -1,0 +1,98 @@
+#pragma once
+// The JSON configuration of `omnipoint train` (docs/TRAINING.md has a full example):
+// {
+//   "output_dir": "runs/small",            checkpoints, log.jsonl
+//   "seed": 0, "threads": 1,                threads 1 + a seed = deterministic, resumable bit-exactly
+//   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2")
+//   "init": {"from": "scratch" | "dinov2" | "moge2" | "omnipoint", "path": FILE,
+//            "output": "ray_distance" | "xyz"  (moge2 only)},
+//   "data": {"batch_size": 8, "image_size": [W, H], "num_tokens": [min, max],
+//            "datasets": [{"weight": 1, "synth": {"scenes": ["indoor", ...], "cameras": [SPEC, ...]}},
+//                         {"weight": 1, "folders": DIR}]},     DIR holds sample folders (data/sample.h)
+//   "conditions": {"probability": 0.9, "sparse_ratio": [0.0005, 0.001]},   from stage 2 on
+//   "augment": {"p2a": false, "a2p": false},
+//   "loss": {"point_loss": "decoupled" | "naive" | "disjoint", "align_trunc": 1,
+//            "weights": {"point": 1, "ray": 1, "metric": 1, "normal": 1, "local": 1, "mask": 1},
+//            "local": {"levels": [4, 16, 64], "patches_per_item": 16, "min_points": 32}},
+//   "optimizer": {"weight_decay": 0.01, "betas": [0.9, 0.999], "eps": 1e-8, "grad_clip": 1.0},
+//   "ema": {"decay": 0.999},
+//   "stages": [{"stage": 1, "steps": 10000, "lr_backbone": 1e-4, "lr_heads": 1e-5,
+//               "decay_every": 2000, "decay_factor": 0.5}, {"stage": 2, ...}, {"stage": 3, ...}],
+//   "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4,
+//   "max_nonfinite_steps": 10
+// }
+// Every key is optional except "stages" and the data sources; unknown keys are errors.
+// Stages run in the order given. Stage 1: the conditions are off; stage 2: each condition is on
+// per item with "probability"; stage 3: only the mask head trains (learning rate lr_heads), the
+// objective is L_mask alone, the conditions as in stage 2.
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "omnipoint/train/losses.h"
+
+namespace omnipoint::train {
+
+struct SynthSource {
+  std::vector<std::string> scenes;   // synth scene kinds
+  std::vector<std::string> cameras;  // camera specs; resized to the image size
+};
+
+struct DatasetSource {
+  double weight = 1.0;
+  bool synth = false;
+  SynthSource synth_source;
+  std::string folders;  // a directory of sample folders
+};
+
+struct StageConfig {
+  int stage = 1;  // 1, 2 or 3
+  int64_t steps = 0;
+  double lr_backbone = 1e-4;
+  double lr_heads = 1e-5;
+  int64_t decay_every = 0;  // 0: constant
+  double decay_factor = 0.5;
+};
+
+struct TrainConfig {
+  std::string output_dir = "train_output";
+  uint64_t seed = 0;
+  int threads = 1;
+
+  nlohmann::json model;            // OmniPointConfig JSON
+  std::string init_from = "scratch";
+  std::string init_path;
+  std::string init_output = "ray_distance";
+
+  int64_t batch_size = 2;
+  int64_t width = 56, height = 56;
+  std::array<int64_t, 2> num_tokens{16, 16};
+  std::vector<DatasetSource> datasets;
+
+  double condition_probability = 0.9;
+  std::array<double, 2> sparse_ratio{0.0005, 0.001};
+  bool p2a = false, a2p = false;
+
+  LossConfig loss;
+  double weight_decay = 0.01;
+  std::array<double, 2> betas{0.9, 0.999};
+  double eps = 1e-8;
+  double grad_clip = 1.0;  // 0: no clipping
+  double ema_decay = 0.999;
+
+  std::vector<StageConfig> stages;
+  int64_t checkpoint_every = 500;
+  int64_t log_every = 10;
+  int64_t eval_every = 0;
+  int64_t eval_batches = 4;
+  int64_t max_nonfinite_steps = 10;
+
+  int64_t total_steps() const;
+  // std::invalid_argument naming the key and what was expected.
+  static TrainConfig from_json(const nlohmann::json& json);
+};
+
+}  // namespace omnipoint::train

@@ -1,0 +1,301 @@
+// The training loop on a tiny network and synthetic data: config errors, schedules, stage 3
+// freezing, EMA, non-finite step handling, and the exact resume through the CLI.
+#include <ATen/ATen.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/state_dict.h"
+#include "omnipoint/train/batch_source.h"
+#include "omnipoint/train/checkpoint.h"
+#include "omnipoint/train/trainer.h"
+
+namespace omnipoint::train {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json tiny_model_json() {
+  const json stack = {{"dim_res_blocks", {16, 8, 8, 8, 4}},
+                      {"num_res_blocks", {0, 1, 1, 1, 0}},
+                      {"resamplers", {"conv_transpose", "conv_transpose", "conv_transpose", "bilinear"}},
+                      {"res_block_in_norm", "none"},
+                      {"res_block_hidden_norm", "none"}};
+  const auto head = [&](int channels) {
+    json h = stack;
+    h["dim_in"] = {16, 8, 8, 8, 4};
+    h["dim_out"] = {nullptr, nullptr, nullptr, nullptr, channels};
+    return h;
+  };
+  json neck = stack;
+  neck["dim_in"] = {18, 2, 2, 2, 2};
+  neck["dim_out"] = nullptr;
+  return {{"encoder",
+           {{"backbone", "dinov2_custom"},
+            {"intermediate_layers", {0, 1}},
+            {"dim_out", 16},
+            {"backbone_config", {{"embed_dim", 32}, {"depth", 2}, {"num_heads", 2}, {"img_size", 56}}}}},
+          {"neck", neck},
+          {"mask_head", head(1)},
+          {"ray_head", head(3)},
+          {"distance_head", head(1)},
+          {"scale_head", {{"dims", {32, 16, 1}}}},
+          {"conditioning", {{"encoder_dim", 8}, {"splat_radius", 2}}}};
+}
+
+json tiny_config(const std::string& output_dir) {
+  return {{"output_dir", output_dir},
+          {"seed", 5},
+          {"threads", 1},
+          {"model", tiny_model_json()},
+          {"data",
+           {{"batch_size", 2},
+            {"image_size", {28, 28}},
+            {"num_tokens", {2, 4}},
+            {"datasets",
+             {{{"weight", 1},
+               {"synth",
+                {{"scenes", {"indoor", "outdoor", "object"}},
+                 {"cameras", {"PINHOLE 28 28 20 20 14 14", "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0"}}}}}}}}},
+          {"conditions", {{"probability", 0.9}, {"sparse_ratio", {0.005, 0.01}}}},
+          {"loss", {{"local", {{"levels", {4}}, {"patches_per_item", 4}, {"min_points", 8}}}}},
+          {"ema", {{"decay", 0.9}}},
+          {"stages",
+           {{{"stage", 1}, {"steps", 2}, {"lr_backbone", 1e-3}, {"lr_heads", 1e-3}, {"decay_every", 1}},
+            {{"stage", 2}, {"steps", 2}, {"lr_backbone", 5e-4}, {"lr_heads", 5e-4}},
+            {{"stage", 3}, {"steps", 1}, {"lr_backbone", 0}, {"lr_heads", 1e-3}}}},
+          {"checkpoint_every", 0},
+          {"log_every", 1}};
+}
+
+model::OmniPointModel tiny_model(const TrainConfig& config) {
+  at::manual_seed(11);
+  return build_model(config);
+}
+
+std::string temp_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("omnipoint_train_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+TEST(TrainConfig, RejectsBadConfigsClearly) {
+  json config = tiny_config("x");
+  config["augment"] = {{"p2a", true}};
+  try {
+    TrainConfig::from_json(config);
+    FAIL() << "p2a accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("augment.p2a"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not available"), std::string::npos) << e.what();
+  }
+  config = tiny_config("x");
+  config["stages"][0]["learning_rate"] = 1;
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  config = tiny_config("x");
+  config["stages"][0]["stage"] = 4;
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  config = tiny_config("x");
+  config["data"]["datasets"][0].erase("synth");
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  config = tiny_config("x");
+  config["loss"]["point_loss"] = "entangled";
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+}
+
+TEST(BatchSource, BatchesAreAFunctionOfSeedStepAndRank) {
+  const TrainConfig config = TrainConfig::from_json(tiny_config("x"));
+  const BatchSource source(config);
+  const TrainingBatch a = source.batch(3, true), b = source.batch(3, true);
+  EXPECT_TRUE(at::equal(a.image, b.image));
+  EXPECT_TRUE(at::equal(a.condition_sparse_depth, b.condition_sparse_depth));
+  EXPECT_EQ(a.num_tokens, b.num_tokens);
+  EXPECT_EQ(a.image.sizes(), (std::vector<int64_t>{2, 3, 28, 28}));
+  EXPECT_FALSE(at::equal(a.image, source.batch(4, true).image));
+  // Two ranks of batch 1 read the two halves of the global batch of 2 (world size 2 → items
+  // 2s·1 + r ... the same indices as one process with batch 2).
+  TrainConfig half = config;
+  half.batch_size = 1;
+  const BatchSource half_source(half);
+  EXPECT_TRUE(at::equal(half_source.batch(3, true, 0, 2).image[0], a.image[0]));
+  EXPECT_TRUE(at::equal(half_source.batch(3, true, 1, 2).image[0], a.image[1]));
+  // Without conditions nothing is passed; sparse depth is sampled from the GT distances.
+  EXPECT_EQ(source.batch(3, false).condition_rays.abs().sum().item<double>(), 0.0);
+  const at::Tensor sparse = a.condition_sparse_depth, has = sparse > 0;
+  if (has.any().item<bool>())
+    EXPECT_TRUE(at::equal(sparse.masked_select(has), a.targets.distance.masked_select(has)));
+}
+
+TEST(Trainer, ScheduleEmaAndStageThreeFreezing) {
+  const TrainConfig config = TrainConfig::from_json(tiny_config("x"));
+  Trainer trainer(config, tiny_model(config));
+  const std::map<std::string, at::Tensor> before = [&] {
+    std::map<std::string, at::Tensor> copy;
+    for (const auto& [name, t] : model::state_dict(*trainer.model())) copy[name] = t.clone();
+    return copy;
+  }();
+  const StepRecord first = trainer.train_step();
+  EXPECT_EQ(first.step, 1);
+  EXPECT_FALSE(first.skipped);
+  EXPECT_TRUE(std::isfinite(first.loss));
+  EXPECT_DOUBLE_EQ(first.lr_backbone, 1e-3);
+  EXPECT_EQ(first.terms.size(), 6u);
+  // EMA after one step: d·p0 + (1 − d)·p1.
+  const auto after = model::state_dict(*trainer.model());
+  const std::string name = "encoder.backbone.cls_token";
+  ASSERT_TRUE(after.count(name));
+  EXPECT_TRUE(at::allclose(trainer.ema().at(name), 0.9 * before.at(name) + 0.1 * after.at(name), 1e-6, 1e-7));
+  EXPECT_FALSE(at::equal(before.at(name), after.at(name)));
+  EXPECT_DOUBLE_EQ(trainer.train_step().lr_backbone, 0.5e-3);  // × 0.5 every step
+  EXPECT_EQ(trainer.train_step().stage, 2);
+  trainer.train_step();
+  std::map<std::string, at::Tensor> stage2;
+  for (const auto& [n, t] : model::state_dict(*trainer.model())) stage2[n] = t.clone();
+  const StepRecord last = trainer.train_step();
+  EXPECT_EQ(last.stage, 3);
+  EXPECT_EQ(last.terms.size(), 1u);
+  EXPECT_TRUE(trainer.done());
+  int changed = 0;
+  for (const auto& [n, t] : model::state_dict(*trainer.model())) {
+    const bool same = at::equal(t, stage2.at(n));
+    if (n.rfind("mask_head.", 0) == 0) changed += !same;
+    else EXPECT_TRUE(same) << n << " changed in stage 3";
+  }
+  EXPECT_GT(changed, 0);
+}
+
+TEST(Trainer, NonFiniteStepsAreSkippedThenStop) {
+  json json_config = tiny_config("x");
+  json_config["max_nonfinite_steps"] = 2;
+  const TrainConfig config = TrainConfig::from_json(json_config);
+  model::OmniPointModel network = tiny_model(config);
+  {
+    at::NoGradGuard no_grad;
+    model::state_dict(*network).at("scale_head.0.weight").fill_(NAN);
+  }
+  Trainer trainer(config, network);
+  const StepRecord skipped = trainer.train_step();
+  EXPECT_TRUE(skipped.skipped);
+  try {
+    trainer.train_step();
+    FAIL() << "no error after 2 non-finite steps";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("2 steps in a row"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Trainer, StateRestoresExactlyInMemory) {
+  const TrainConfig config = TrainConfig::from_json(tiny_config("x"));
+  Trainer straight(config, tiny_model(config));
+  for (int i = 0; i < 3; ++i) straight.train_step();
+  const StepRecord expected = straight.train_step();
+
+  Trainer first(config, tiny_model(config));
+  for (int i = 0; i < 3; ++i) first.train_step();
+  Trainer second(config, tiny_model(config));
+  second.restore(first.state());
+  const StepRecord resumed = second.train_step();
+  EXPECT_EQ(resumed.loss, expected.loss);
+  for (const auto& [name, t] : model::state_dict(*straight.model()))
+    EXPECT_TRUE(at::equal(t, model::state_dict(*second.model()).at(name))) << name;
+}
+
+std::map<int64_t, double> losses_by_step(const std::string& log) {
+  std::map<int64_t, double> losses;
+  std::istringstream lines(io::read_file(log));
+  std::string line;
+  while (std::getline(lines, line)) {
+    const json record = json::parse(line);
+    if (record.contains("loss")) losses[record.at("step").get<int64_t>()] = record.at("loss").get<double>();
+  }
+  return losses;
+}
+
+int run_cli(const std::string& arguments) {
+  return std::system((std::string(OMNIPOINT_CLI) + " train " + arguments + " 2>/dev/null").c_str());
+}
+
+TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
+  const std::string root = temp_dir("resume");
+  const auto write_config = [&](const std::string& name) {
+    json config = tiny_config(root + "/" + name);
+    config["checkpoint_every"] = 2;
+    const std::string path = root + "/" + name + ".json";
+    std::ofstream(path) << config.dump(2);
+    return path;
+  };
+  const std::string straight = write_config("straight"), interrupted = write_config("interrupted");
+  ASSERT_EQ(run_cli("--config " + straight), 0);
+  // Stopped after step 3 (mid stage 2), and as if killed before its checkpoint: `latest`
+  // still names step 2, so the resumed run redoes step 3 and rewrites its log record.
+  ASSERT_EQ(run_cli("--config " + interrupted + " --stop-after 3"), 0);
+  EXPECT_FALSE(fs::exists(root + "/interrupted/model.safetensors"));
+  ASSERT_TRUE(fs::exists(root + "/interrupted/checkpoints/step_00000003"));
+  std::ofstream(root + "/interrupted/checkpoints/latest") << "step_00000002\n";
+  ASSERT_EQ(run_cli("--config " + interrupted + " --resume " + root + "/interrupted"), 0);
+
+  const auto expected = losses_by_step(root + "/straight/log.jsonl");
+  const auto resumed = losses_by_step(root + "/interrupted/log.jsonl");
+  ASSERT_EQ(expected.size(), 5u);
+  EXPECT_EQ(resumed, expected);
+  for (const std::string file : {"model.safetensors", "model_ema.safetensors"}) {
+    const auto a = io::read_safetensors(root + "/straight/" + file, std::nullopt).tensors;
+    const auto b = io::read_safetensors(root + "/interrupted/" + file, std::nullopt).tensors;
+    ASSERT_EQ(a.size(), b.size());
+    for (const auto& [name, t] : a) EXPECT_TRUE(at::equal(t, b.at(name))) << file << " " << name;
+  }
+  // Resuming from a checkpoint's step folder works too; a bad path is one clear error.
+  EXPECT_NO_THROW(read_checkpoint(root + "/interrupted/checkpoints/step_00000005"));
+  EXPECT_THROW(read_checkpoint(root + "/nothing"), std::runtime_error);
+  EXPECT_NE(run_cli("--config " + interrupted + " --resume " + root + "/nothing"), 0);
+  fs::remove_all(root);
+}
+
+TEST(TrainCli, TwoGlooRanksEqualOneProcessOnTheCombinedBatch) {
+  const std::string root = temp_dir("ddp");
+  const auto write_config = [&](const std::string& name, int64_t batch_size) {
+    json config = tiny_config(root + "/" + name);
+    config["data"]["batch_size"] = batch_size;
+    // The local loss draws its anchors per process; off here so that the objective is the same.
+    config["loss"]["weights"] = {{"local", 0}};
+    // The all-reduce sums in another order than autograd over the whole batch (float rounding,
+    // ~1e-7 relative). With Adam's eps ~ 0 the first update is lr·sign(g), which turns that
+    // rounding into ±lr for the gradients that are ~0; eps = 1 keeps the update proportional to
+    // the gradient, so the comparison measures the gradients the ranks agree on.
+    config["optimizer"] = {{"eps", 1.0}};
+    const std::string path = root + "/" + name + ".json";
+    std::ofstream(path) << config.dump(2);
+    return path;
+  };
+  const std::string single = write_config("single", 2), ranks = write_config("ranks", 1);
+  ASSERT_EQ(run_cli("--config " + single), 0);
+  const std::string port = std::to_string(20000 + ::getpid() % 20000);
+  ASSERT_EQ(std::system(("MASTER_PORT=" + port + " " + std::string(OMNIPOINT_CLI) + " train --config " + ranks +
+                         " --nproc 2 2>/dev/null").c_str()),
+            0);
+  const auto a = io::read_safetensors(root + "/single/model.safetensors", std::nullopt).tensors;
+  const auto b = io::read_safetensors(root + "/ranks/model.safetensors", std::nullopt).tensors;
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0;
+  for (const auto& [name, t] : a) worst = std::max(worst, (t - b.at(name)).abs().max().item<double>());
+  EXPECT_LE(worst, 1e-6);
+  // Only rank 0 wrote the log: one record per step.
+  EXPECT_EQ(losses_by_step(root + "/ranks/log.jsonl").size(), 5u);
+  fs::remove_all(root);
+}
+
+}  // namespace
+}  // namespace omnipoint::train
