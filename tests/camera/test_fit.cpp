@@ -32,6 +32,18 @@ TEST(FitCamera, RecoversOpenCV) {
 
 TEST(FitCamera, RecoversFov) { expect_recovers("FOV 320 240 150 151 160 120 0.9", 1e-4, 1e-6); }
 
+TEST(FitCamera, RecoversOpenCVFisheye) {
+  // Over 180 degrees: the fit uses rays behind the image plane too.
+  expect_recovers("OPENCV_FISHEYE 320 240 92.6 92.4 160.3 119.6 0.025 -0.011 0.0016 -0.0001", 1e-4, 1e-6);
+}
+
+TEST(FitCamera, RecoversUnifiedModels) {
+  expect_recovers("UCM 320 240 80.6 80.4 159.3 121.2 0.55", 1e-4, 1e-6);
+  expect_recovers("EUCM 320 240 90.1 89.9 160.9 119.7 0.58 1.08", 1e-4, 1e-6);
+  expect_recovers("DOUBLE_SPHERE 320 240 70.2 70.1 160.3 119.9 -0.2 0.55", 1e-4, 1e-6);
+  expect_recovers("MEI 320 240 210.3 209.6 160.7 119.4 1.35 -0.12 0.05 0.0006 -0.0004", 1e-4, 1e-6);
+}
+
 TEST(FitCamera, FloatRayMapFitsToFloatPrecision) {
   const auto truth = parse_camera("PINHOLE 320 240 250.5 252.25 160.5 119.75");
   const auto map = truth.ray_map(at::kFloat);

@@ -15,6 +15,15 @@ const CameraModel& opencv_model();
 const CameraModel& full_opencv_model();
 const CameraModel& fov_model();
 const CameraModel& equirectangular_model();
+const CameraModel& opencv_fisheye_model();
+const CameraModel& simple_radial_fisheye_model();
+const CameraModel& radial_fisheye_model();
+const CameraModel& thin_prism_fisheye_model();
+const CameraModel& rad_tan_thin_prism_fisheye_model();
+const CameraModel& mei_model();
+const CameraModel& ucm_model();
+const CameraModel& eucm_model();
+const CameraModel& double_sphere_model();
 
 namespace {
 
@@ -28,6 +37,15 @@ const std::vector<const CameraModel*>& all_models() {
       &full_opencv_model(),
       &fov_model(),
       &equirectangular_model(),
+      &opencv_fisheye_model(),
+      &simple_radial_fisheye_model(),
+      &radial_fisheye_model(),
+      &thin_prism_fisheye_model(),
+      &rad_tan_thin_prism_fisheye_model(),
+      &mei_model(),
+      &ucm_model(),
+      &eucm_model(),
+      &double_sphere_model(),
   };
   return models;
 }
