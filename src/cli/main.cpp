@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "omnipoint 0.1.0");
   omnipoint::cli::add_camera_command(app);
   omnipoint::cli::add_forward_command(app);
+  omnipoint::cli::add_synth_command(app);
 
   try {
     app.parse(argc, argv);

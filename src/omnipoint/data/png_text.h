@@ -1,0 +1,17 @@
+#pragma once
+// PNG text metadata (the tEXt and uncompressed iTXt chunks), which OpenCV neither reads nor
+// writes: a small chunk walker over the PNG byte stream (PNG spec, section 11.3.4).
+#include <map>
+#include <string>
+
+namespace omnipoint::data {
+
+// keyword -> text for every tEXt chunk and uncompressed iTXt chunk (compressed ones are
+// skipped). A stream that is not a well-formed PNG -> std::runtime_error naming `name`.
+std::map<std::string, std::string> read_png_text(const std::string& png, const std::string& name);
+
+// The PNG with one tEXt chunk per entry inserted right after IHDR (Latin-1 text; keywords
+// of 1-79 characters without NUL, else std::invalid_argument).
+std::string add_png_text(const std::string& png, const std::map<std::string, std::string>& text);
+
+}  // namespace omnipoint::data

@@ -1,0 +1,42 @@
+#pragma once
+// The OmniPoint dataset format (docs/DATASET.md): one folder per sample holding
+//   image.png | image.jpg    RGB
+//   distance.npy             (H, W) float32 metres along each pixel's unit ray, or
+//   depth.npy                (H, W) float32 planar depth (camera-frame z), used when
+//                            distance.npy is absent (pixels with ray z ~ 0 then unusable)
+//   mask.png | mask.npy      optional (H, W): valid geometry (non-zero); absent -> distance > 0
+//   meta.json                {"camera": SPEC, "metric": bool, ...} with the camera spec in
+//                            DESIGN.md's convention (COLMAP line or JSON object)
+// Zero distance means "no label" (sky, outside the lens); +inf is read as sky.
+#include <ATen/core/Tensor.h>
+
+#include <string>
+
+#include "omnipoint/camera/camera.h"
+
+namespace omnipoint::data {
+
+struct Sample {
+  camera::Camera camera;
+  at::Tensor image;     // (H, W, 3) float32 RGB in [0, 1]
+  at::Tensor distance;  // (H, W) float32 along the camera's unit rays, 0 where mask is false
+  at::Tensor mask;      // (H, W) bool: labelled geometry
+  bool metric = false;  // distances in metres (else up to an unknown scale)
+};
+
+// Reads and validates a sample folder. Missing or corrupt files, sizes that disagree with
+// the camera, NaN or negative distances, an unknown camera -> std::runtime_error naming the
+// folder and the problem.
+Sample read_sample(const std::string& folder);
+
+// Writes image.png, distance.npy, mask.png and meta.json into `folder` (created if
+// needed), each file atomically. `extra_meta` (a JSON object as text, may be empty) is
+// merged into meta.json.
+void write_sample(const std::string& folder, const Sample& sample,
+                  const std::string& extra_meta = "");
+
+// Checks the invariants of a Sample in memory (shapes, dtypes, finite non-negative
+// distances, zero outside the mask); throws std::invalid_argument naming `what`.
+void validate_sample(const Sample& sample, const std::string& what);
+
+}  // namespace omnipoint::data
