@@ -11,5 +11,6 @@ namespace omnipoint::cli {
 void add_camera_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
+void add_metrics_command(CLI::App& app);
 
 }  // namespace omnipoint::cli

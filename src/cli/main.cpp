@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   omnipoint::cli::add_camera_command(app);
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_synth_command(app);
+  omnipoint::cli::add_metrics_command(app);
 
   try {
     app.parse(argc, argv);
