@@ -12,5 +12,7 @@ void add_camera_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
+void add_init_model_command(CLI::App& app);
+void add_predict_command(CLI::App& app);
 
 }  // namespace omnipoint::cli

@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_synth_command(app);
   omnipoint::cli::add_metrics_command(app);
+  omnipoint::cli::add_init_model_command(app);
+  omnipoint::cli::add_predict_command(app);
 
   try {
     app.parse(argc, argv);
