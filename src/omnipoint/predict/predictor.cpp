@@ -289,7 +289,7 @@ std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid) {
   if (z.numel() == 0) return "PINHOLE";
   const double min_z = z.min().item<double>();
   if (min_z >= std::cos(70.0 * M_PI / 180.0)) return "PINHOLE";
-  if (min_z > -0.5) return "OPENCV_FISHEYE";
+  if (min_z > -0.95) return "OPENCV_FISHEYE";  // no lens sees within 18° of straight back
   return "EQUIRECTANGULAR";
 }
 

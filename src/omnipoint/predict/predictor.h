@@ -113,8 +113,8 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
                                const at::Tensor& rays, const camera::Camera* camera);
 
 // The camera model "auto" picks for predicted rays (H, W, 3) valid (H, W): PINHOLE when every
-// ray is within 70° of the axis, OPENCV_FISHEYE while they stay in front of the camera's
-// side plane by a margin, EQUIRECTANGULAR beyond.
+// ray is within 70° of the axis, OPENCV_FISHEYE while none points within 18° of straight
+// back, EQUIRECTANGULAR beyond (panoramas see all around).
 std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid);
 
 // A prediction built from geometry alone (the output writers' input; also the oracle path of
