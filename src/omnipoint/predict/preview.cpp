@@ -63,18 +63,21 @@ at::Tensor render_preview(const at::Tensor& points, const at::Tensor& colors, co
   const at::Tensor x = (u - 0.5 * (u0 + u1)) * focal + 0.5 * width;
   const at::Tensor y = (v - 0.5 * (v0 + v1)) * focal + 0.5 * height;
 
-  // Splat squares sized so that the visible points roughly cover their image area.
+  // Splat squares sized so that the visible points roughly cover their image area at the
+  // median distance, growing towards the viewer (nearer points are magnified more).
   const int64_t visible = in_front.sum().item<int64_t>();
-  const int64_t splat = std::clamp<int64_t>(
-      static_cast<int64_t>(std::ceil(std::sqrt(0.5 * static_cast<double>(width * height) / visible))), 1, 4);
+  const double base = std::sqrt(0.5 * static_cast<double>(width * height) / visible);
+  const double z_median = quantile_of(sample_view.select(1, 2), 0.5);
+  const at::Tensor size = (base * z_median / safe_z).ceil().clamp(1, 6);
+  const int64_t largest = static_cast<int64_t>(size.max().item<double>());
   std::vector<at::Tensor> pixels, distances, indices, valids;
   const at::Tensor index = at::arange(p.size(0), at::kDouble);
-  for (int64_t dy = 0; dy < splat; ++dy) {
-    for (int64_t dx = 0; dx < splat; ++dx) {
+  for (int64_t dy = 0; dy < largest; ++dy) {
+    for (int64_t dx = 0; dx < largest; ++dx) {
       pixels.push_back(at::stack({x + static_cast<double>(dx), y + static_cast<double>(dy)}, 1));
       distances.push_back(z);
       indices.push_back(index);
-      valids.push_back(in_front);
+      valids.push_back(in_front & (size > static_cast<double>(std::max(dx, dy))));
     }
   }
   const geometry::SparseDepth nearest = geometry::rasterize_nearest(
