@@ -160,3 +160,29 @@ TEST(Predictor, LoadErrorsNameTheFile) {
 
 }  // namespace
 }  // namespace omnipoint::predict
+
+namespace omnipoint::predict {
+namespace {
+
+// A MoGe-2 checkpoint runs through the same API as a pinhole model: its infer() points (the
+// shared reference fixture, computed with MoGe's own code) come back as rays × distances.
+TEST(Predictor, MoGe2CheckpointGivesItsInferPoints) {
+  const std::string fixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+  const Model model = Model::load(fixture + "/model.safetensors");
+  EXPECT_EQ(model.format(), "moge2");
+  const at::Tensor image = io::read_npy(fixture + "/input.npy")[0].permute({1, 2, 0});
+  PredictOptions options;
+  options.num_tokens = 300;
+  options.fit_model = "PINHOLE";
+  const Prediction p = model.predict(image, options);
+  const at::Tensor expected_mask = io::read_npy(fixture + "/expected_infer_mask.npy")[0].to(at::kBool);
+  const at::Tensor expected_points = io::read_npy(fixture + "/expected_infer_points.npy")[0];
+  EXPECT_TRUE(at::equal(p.mask, expected_mask));
+  const at::Tensor mask = p.mask.unsqueeze(-1).expand({-1, -1, 3});
+  EXPECT_TRUE(at::allclose(p.points.masked_select(mask), expected_points.masked_select(mask), 1e-4, 1e-5));
+  ASSERT_TRUE(p.fitted_camera.has_value()) << p.fit_error;
+  EXPECT_EQ(p.fitted_camera->model_name(), "PINHOLE");
+}
+
+}  // namespace
+}  // namespace omnipoint::predict
