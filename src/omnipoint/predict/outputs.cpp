@@ -82,8 +82,12 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
                                           at::zeros_like(p.depth));
     io::write_image_png((staging / "depth.png").string(), depth_mm.to(at::kInt));
     io::write_image_png((staging / "depth_vis.png").string(), geometry::colorize_depth(p.distance, p.mask));
+    const auto preview_start = std::chrono::steady_clock::now();
     io::write_image_png((staging / "preview.png").string(), render_preview(cloud.points, cloud.colors));
+    const double preview_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - preview_start).count();
     nlohmann::json json = summary(p);
+    json["timing_ms"]["preview"] = preview_ms;  // part of writing
     json["timing_ms"]["writing"] =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     write_text(staging / "camera.json", json.dump(2) + "\n");

@@ -37,8 +37,10 @@ at::Tensor render_preview(const at::Tensor& points, const at::Tensor& colors, co
   at::Tensor image = at::full({height, width, 3}, kBackground, at::kByte);
   if (points.size(0) == 0) return image;
 
-  // Subsample large clouds for the quantiles (at::quantile has an input size limit).
-  const at::Tensor p = points.to(at::kCPU, at::kDouble);
+  const int64_t keep_every = std::max<int64_t>(1, (points.size(0) + options.max_points - 1) / options.max_points);
+  const at::Tensor p = points.slice(0, 0, points.size(0), keep_every).to(at::kCPU, at::kDouble);
+  const at::Tensor kept_colors = colors.slice(0, 0, colors.size(0), keep_every);
+  // Subsample further for the quantiles (at::quantile has an input size limit).
   const int64_t stride = std::max<int64_t>(1, p.size(0) / 100000);
   const at::Tensor sample = p.slice(0, 0, p.size(0), stride);
   const at::Tensor centre = std::get<0>(sample.median(0));
@@ -99,7 +101,7 @@ at::Tensor render_preview(const at::Tensor& points, const at::Tensor& colors, co
   const double z_near = quantile_of(sample_view.select(1, 2), 0.02);  // sample_view shares the shifted z
   const double z_far = std::max(quantile_of(sample_view.select(1, 2), 0.98), z_near + 1e-9);
   const at::Tensor shade = 1.0 - 0.55 * ((z - z_near) / (z_far - z_near)).clamp(0.0, 1.0);
-  const at::Tensor shaded = (colors.to(at::kCPU, at::kDouble) * shade.unsqueeze(1)).round().clamp(0, 255).to(at::kByte);
+  const at::Tensor shaded = (kept_colors.to(at::kCPU, at::kDouble) * shade.unsqueeze(1)).round().clamp(0, 255).to(at::kByte);
   image.view({height * width, 3}).index_copy_(0, winner_pixel, shaded.index_select(0, winner_point));
   return image;
 }

@@ -15,6 +15,7 @@ struct PreviewOptions {
   int64_t height = 480;
   double yaw_deg = 35.0;
   double pitch_deg = 25.0;
+  int64_t max_points = 150000;  // larger clouds are subsampled regularly (the splats grow)
 };
 
 // points (N, 3) camera frame (finite), colors (N, 3) uint8 -> (height, width, 3) uint8 image,
