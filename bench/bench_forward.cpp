@@ -12,6 +12,8 @@
 #include <c10/core/InferenceMode.h>
 #include <nlohmann/json.hpp>
 
+#include <sys/resource.h>
+
 #include <fstream>
 #include <string>
 
@@ -51,8 +53,18 @@ const char* kBackbones[] = {"dinov2_vits14", "dinov2_vitb14", "dinov2_vitl14"};
 at::Tensor test_image() { return at::rand({1, 3, 480, 640}); }
 
 // Peak resident memory of one benchmark: Linux's high-water mark (VmHWM), reset at its start
-// by writing 5 to /proc/self/clear_refs.
+// by writing 5 to /proc/self/clear_refs. Memory the allocator kept from earlier benchmarks
+// counts too: run one configuration per process for clean figures.
 void reset_peak_memory() { std::ofstream("/proc/self/clear_refs") << "5"; }
+// CPU seconds of the whole process (all threads): with other jobs on the machine, wall time
+// depends on the load; CPU time much less so.
+double process_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 double peak_memory_mb() {
   std::ifstream status("/proc/self/status");
   for (std::string line; std::getline(status, line);) {
@@ -81,7 +93,9 @@ void BM_VitBlocks(benchmark::State& state) {
   const at::Tensor tokens = encoder.backbone->prepare_tokens(encoder.preprocess(image, grid));
   const auto& layers = encoder.config().intermediate_layers;
   encoder.backbone->intermediate_layers(tokens, layers);  // warm-up
+  const double cpu_start = process_cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(encoder.backbone->intermediate_layers(tokens, layers));
+  state.counters["cpu_s"] = benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
   const double n = static_cast<double>(tokens.size(1)), c = static_cast<double>(tokens.size(2));
   const double flops = (24 * n * c * c + 4 * n * n * c) * static_cast<double>(layers.back() + 1);
   state.counters["GFLOP/s"] =
@@ -96,7 +110,9 @@ void BM_Forward(benchmark::State& state) {
   model->eval();
   const at::Tensor image = test_image();
   model->forward(image, state.range(1));  // warm-up
+  const double cpu_start = process_cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(model->forward(image, state.range(1)));
+  state.counters["cpu_s"] = benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
   state.counters["peak_MB"] = peak_memory_mb();
 }
 

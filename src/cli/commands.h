@@ -14,5 +14,6 @@ void add_synth_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
 void add_init_model_command(CLI::App& app);
 void add_predict_command(CLI::App& app);
+void add_reproject_command(CLI::App& app);
 
 }  // namespace omnipoint::cli

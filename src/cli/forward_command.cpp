@@ -10,7 +10,7 @@
 #include <string>
 
 #include "cli/commands.h"
-#include "omnipoint/geometry/point_rays.h"
+#include "omnipoint/geometry/points.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2.h"
@@ -61,7 +61,7 @@ void run_forward(const ForwardOptions& options) {
 
   c10::InferenceMode inference;
   const model::MoGe2Output output = model->forward(image, num_tokens);
-  const geometry::RaysAndDistance rays = geometry::rays_and_distance(output.points);
+  const geometry::RaysAndDistance rays = geometry::rays_from_points(output.points);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {

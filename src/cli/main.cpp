@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   omnipoint::cli::add_metrics_command(app);
   omnipoint::cli::add_init_model_command(app);
   omnipoint::cli::add_predict_command(app);
+  omnipoint::cli::add_reproject_command(app);
 
   try {
     app.parse(argc, argv);

@@ -198,3 +198,37 @@ TEST(MoGe2Config, RejectsUnsupportedSettingsClearly) {
 }
 
 }  // namespace
+
+namespace {
+
+// A tiny random MoGe-2 with every head, for properties the fixture (no normal head, batch 1)
+// does not cover.
+model::MoGe2Config tiny_config_with_normals() {
+  nlohmann::json config = read_meta()["model_config"];
+  config["normal_head"] = config["points_head"];
+  return model::MoGe2Config::from_json(config);
+}
+
+TEST(MoGe2, BatchedForwardEqualsPerImageAndNormalsAreUnit) {
+  c10::InferenceMode inference;
+  model::MoGe2Model net(tiny_config_with_normals());
+  net->eval();
+  const at::Tensor images = at::rand({2, 3, 50, 70});
+  const model::MoGe2Output batched = net->forward(images, 40);
+  ASSERT_TRUE(batched.normal.defined());
+  EXPECT_EQ(batched.normal.sizes(), (std::vector<int64_t>{2, 50, 70, 3}));
+  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(batched.normal, 2, {-1}), at::ones({2, 50, 70}), 0, 1e-5));
+  for (int64_t b = 0; b < 2; ++b) {
+    const model::MoGe2Output single = net->forward(images.narrow(0, b, 1), 40);
+    EXPECT_TRUE(at::allclose(single.points, batched.points.narrow(0, b, 1), 1e-4, 1e-5));
+    EXPECT_TRUE(at::allclose(single.mask, batched.mask.narrow(0, b, 1), 1e-4, 1e-5));
+    EXPECT_TRUE(at::allclose(single.metric_scale, batched.metric_scale.narrow(0, b, 1), 1e-4, 1e-6));
+  }
+  const model::MoGe2Inference result = model::infer(net, images, 40);
+  EXPECT_EQ(result.intrinsics.sizes(), (std::vector<int64_t>{2, 3, 3}));
+  EXPECT_TRUE(at::equal(at::isinf(result.depth), ~result.mask));
+  EXPECT_TRUE(at::equal(result.normal.masked_select(~result.mask.unsqueeze(-1).expand_as(result.normal)).abs().sum(),
+                        at::zeros({})));
+}
+
+}  // namespace

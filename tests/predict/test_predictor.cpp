@@ -186,3 +186,27 @@ TEST(Predictor, MoGe2CheckpointGivesItsInferPoints) {
 
 }  // namespace
 }  // namespace omnipoint::predict
+
+namespace omnipoint::predict {
+namespace {
+
+// A MoGe-2 checkpoint on a fisheye camera runs in A2P's multi-view mode and says so; the rays
+// are the camera's.
+TEST(Predictor, MoGe2OnAFisheyeUsesMultiViewMode) {
+  const std::string fixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+  const Model model = Model::load(fixture + "/model.safetensors");
+  PredictOptions options;
+  options.num_tokens = 300;
+  options.fit_model = "";
+  options.camera = camera::parse_camera("OPENCV_FISHEYE 160 120 45 45 80 60 0 0 0 0");
+  const Prediction p = model.predict(io::read_npy(fixture + "/input.npy")[0].permute({1, 2, 0}), options);
+  ASSERT_EQ(p.notes.size(), 1u);
+  EXPECT_NE(p.notes[0].find("multi-view"), std::string::npos) << p.notes[0];
+  const camera::Rays rays = options.camera->ray_map();
+  EXPECT_TRUE(at::allclose(p.rays.index({p.mask}), rays.rays.index({p.mask}), 1e-6, 1e-6));
+  EXPECT_GT(p.mask.sum().item<int64_t>(), 0);
+  EXPECT_TRUE(at::isfinite(p.points).all().item<bool>());
+}
+
+}  // namespace
+}  // namespace omnipoint::predict

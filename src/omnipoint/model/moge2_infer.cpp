@@ -5,7 +5,7 @@
 
 #include <limits>
 
-#include "omnipoint/geometry/point_rays.h"
+#include "omnipoint/geometry/points.h"
 
 namespace omnipoint::model {
 
@@ -30,7 +30,7 @@ MoGe2Inference postprocess(const MoGe2Output& output, const MoGe2InferOptions& o
     result.depth = depth * output.metric_scale.view({-1, 1, 1});
     result.metric_scale = output.metric_scale;
   }
-  geometry::RaysAndDistance rays = geometry::rays_and_distance(points);
+  geometry::RaysAndDistance rays = geometry::rays_from_points(points);
   result.rays = rays.rays;
   result.distance = rays.distance;
   result.points = points;

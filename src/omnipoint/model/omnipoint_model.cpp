@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "omnipoint/geometry/point_rays.h"
+#include "omnipoint/geometry/points.h"
 
 namespace omnipoint::model {
 namespace {
@@ -154,7 +154,7 @@ OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64
     out.distance = at::exp(out.log_distance);
   } else {
     out.points_raw = head_map(points_head, neck_levels, height, width);
-    const geometry::RaysAndDistance factored = geometry::rays_and_distance(remap_points(out.points_raw, "exp"));
+    const geometry::RaysAndDistance factored = geometry::rays_from_points(remap_points(out.points_raw, "exp"));
     out.rays = factored.rays;
     out.distance = factored.distance;
   }

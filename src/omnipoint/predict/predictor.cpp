@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "omnipoint/augment/a2p.h"
+#include "omnipoint/augment/teacher.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/geometry/sparse_sampling.h"
@@ -86,6 +88,22 @@ NetworkGeometry run_network(const Model::Impl& impl, const at::Tensor& input, co
                                : at::ones({input.size(0)}, input.options());
   // infer's points are already metric: divide the scale back out of the distances.
   return {out.rays, out.distance / scale.view({-1, 1, 1}), out.mask, scale};
+}
+
+// A perspective-only model (MoGe-2) on a wide camera: A2P's multi-view mode — pinhole views
+// tiling the camera's field of view, each predicted and merged scale-consistently.
+NetworkGeometry run_multi_view(const Model::Impl& impl, const at::Tensor& input, const camera::Camera& camera,
+                               const at::Tensor& camera_rays, int64_t num_tokens) {
+  const augment::Teacher teacher = augment::moge2_teacher(impl.moge2, num_tokens);
+  std::vector<at::Tensor> distances, masks;
+  for (int64_t b = 0; b < input.size(0); ++b) {
+    const augment::MergedPrediction merged =
+        augment::predict_wide_from_views(camera, input[b].permute({1, 2, 0}), teacher);
+    distances.push_back(merged.distance.to(input.options()));
+    masks.push_back(merged.mask.to(input.device()));
+  }
+  const at::Tensor distance = at::stack(distances), mask = at::stack(masks) & (distance > 0);
+  return {camera_rays, distance, mask, at::ones({input.size(0)}, input.options())};
 }
 
 std::optional<camera::Camera> fit(const std::string& requested, const std::optional<camera::Camera>& given,
@@ -166,12 +184,16 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images, const Pre
 
   std::optional<camera::Camera> camera;
   at::Tensor camera_rays;  // (B,H,W,3) on the device
+  bool multi_view = false;  // a perspective-only model on a wide camera
   if (options.camera) {
     camera = camera_for_image(*options.camera, width, height);
     camera_rays = camera->ray_map(input.options()).rays.unsqueeze(0).expand({batch, height, width, 3});
     if (impl_->moge2) {
-      notes.push_back("MoGe-2 checkpoint: the camera is not a network input (pinhole model; the multi-view mode "
-                      "for fisheye and panorama inputs is not available)");
+      const camera::Rays camera_ray_map = camera->ray_map();
+      multi_view = auto_fit_model(camera_ray_map.rays, camera_ray_map.valid) != "PINHOLE";
+      notes.push_back(multi_view ? "MoGe-2 checkpoint on a wide camera: multi-view mode (pinhole views tiling the "
+                                   "field of view, predicted and merged)"
+                                 : "MoGe-2 checkpoint: the camera is not a network input (pinhole model)");
     }
   }
   timing.prepare_ms += ms_since(start);
@@ -214,8 +236,9 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images, const Pre
   }
 
   start = Clock::now();
-  const NetworkGeometry net = run_network(*impl_, input, camera_rays, impl_->omnipoint ? sparse_distance : at::Tensor(),
-                                          num_tokens);
+  const NetworkGeometry net =
+      multi_view ? run_multi_view(*impl_, input, *camera, camera_rays, num_tokens)
+                 : run_network(*impl_, input, camera_rays, impl_->omnipoint ? sparse_distance : at::Tensor(), num_tokens);
   at::Tensor scale = net.metric_scale;
   timing.network_ms += ms_since(start);
 

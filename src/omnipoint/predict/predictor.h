@@ -15,7 +15,8 @@
 // Models: OmniPoint checkpoints (metadata "format": "omnipoint") take the camera as their ray
 // condition and the sparse depth as their depth condition; MoGe-2 checkpoints ("moge2") run as
 // pinhole models — their points give rays and distances, the camera is not an input to them and
-// the sparse depth only serves the metric alignment (Prediction::notes says so).
+// the sparse depth only serves the metric alignment; on a wide camera (fisheye, panorama) they
+// run in A2P's multi-view mode (augment/a2p.h). Prediction::notes says which.
 #include <ATen/core/Tensor.h>
 #include <c10/core/Device.h>
 
