@@ -11,7 +11,9 @@ namespace omnipoint::cli {
 void add_camera_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
+void add_init_model_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
+void add_predict_command(CLI::App& app);
 void add_reproject_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
 void add_train_command(CLI::App& app);

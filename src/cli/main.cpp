@@ -13,7 +13,9 @@ int main(int argc, char** argv) {
   omnipoint::cli::add_camera_command(app);
   omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);
+  omnipoint::cli::add_init_model_command(app);
   omnipoint::cli::add_metrics_command(app);
+  omnipoint::cli::add_predict_command(app);
   omnipoint::cli::add_reproject_command(app);
   omnipoint::cli::add_synth_command(app);
   omnipoint::cli::add_train_command(app);

@@ -1,0 +1,32 @@
+#pragma once
+// The files of one prediction (the per-image folder of `omnipoint predict`):
+//   points.ply      binary PLY, coloured, valid points only (metres, camera frame)
+//   points.glb      the same cloud as a glTF 2.0 binary POINTS primitive (io/glb.h)
+//   distance.npy    (H, W) float32 metric radial distance, 0 where invalid
+//   depth.npy       (H, W) float32 planar depth z, 0 where invalid
+//   rays.npy        (H, W, 3) float32 unit rays
+//   mask.png        8-bit, 255 = valid
+//   depth.png       16-bit planar depth in millimetres (0 = invalid or behind the camera;
+//                   clamped at 65.535 m)
+//   depth_vis.png   colour-mapped inverse depth (distance, so panoramas colour too)
+//   preview.png     the cloud from an oblique viewpoint (preview.h)
+//   camera.json     fitted camera (spec, JSON, fields of view), metric scale, alignment,
+//                   notes and per-stage timing (writing included)
+// The folder appears complete or not at all: everything is written into a temporary sibling
+// folder which is then renamed over `folder` (an older folder of that name is replaced).
+#include <ATen/core/Tensor.h>
+
+#include <string>
+
+#include "omnipoint/predict/predictor.h"
+
+namespace omnipoint::predict {
+
+// image (H, W, 3) RGB in [0, 1] (float) or uint8, the image the prediction was made from.
+// Returns the milliseconds spent writing.
+double write_prediction_outputs(const std::string& folder, const at::Tensor& image, const Prediction& prediction);
+
+// camera.json's content (without the writing time).
+std::string prediction_summary_json(const Prediction& prediction);
+
+}  // namespace omnipoint::predict

@@ -1,0 +1,134 @@
+#pragma once
+// OmniPoint's main API: one image (+ optional camera, + optional sparse depth) -> a metric
+// point cloud. Load a model once, then call predict from any number of threads:
+//
+//   const omnipoint::Model model = omnipoint::Model::load("model.safetensors", at::kCPU);
+//   omnipoint::PredictOptions options;
+//   options.camera = omnipoint::camera::parse_camera("PINHOLE 640 480 500 500 320 240");
+//   const omnipoint::Prediction p = model.predict(image, options);  // image (H, W, 3) RGB [0, 1]
+//   // p.points (H, W, 3) metres where p.mask, p.fitted_camera, p.timing ...
+//
+// Conventions (DESIGN.md): camera frame x right, y down, z forward, metres; P = s·d·r with r
+// the unit ray of a pixel, d its radial distance (metric here: the scale s is applied) and
+// planar depth z = P.z (negative behind wide lenses). Outputs are float32 CPU tensors.
+//
+// Models: OmniPoint checkpoints (metadata "format": "omnipoint") take the camera as their ray
+// condition and the sparse depth as their depth condition; MoGe-2 checkpoints ("moge2") run as
+// pinhole models — their points give rays and distances, the camera is not an input to them and
+// the sparse depth only serves the metric alignment; on a wide camera (fisheye, panorama) they
+// run in A2P's multi-view mode (augment/a2p.h). Prediction::notes says which.
+#include <ATen/core/Tensor.h>
+#include <c10/core/Device.h>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "omnipoint/camera/camera.h"
+
+namespace omnipoint::predict {
+
+// Metric sparse depth for one image; zero or non-finite values are missing samples.
+struct SparseDepthInput {
+  // A depth map (H, W) at the image's size, in metres: planar depth z (depth images, the
+  // usual convention) or, with depth_is_planar = false, radial distance along the rays.
+  at::Tensor depth_map;
+  bool depth_is_planar = true;
+  // Or a point cloud (N, 3) in metres (e.g. a LiDAR scan), projected through the camera with
+  // a z-buffer; camera_from_lidar (4, 4) maps it into the camera frame (identity if undefined).
+  at::Tensor lidar_points;
+  at::Tensor camera_from_lidar;
+
+  bool empty() const { return !depth_map.defined() && !lidar_points.defined(); }
+};
+
+struct PredictOptions {
+  // The image's camera (any model); its size must equal the image's or have its aspect ratio
+  // (it is then resized). Without it the model predicts the rays.
+  std::optional<camera::Camera> camera;
+  SparseDepthInput sparse_depth;
+  int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (MoGe-2's top level)
+  // Camera model fitted to the predicted rays ("PINHOLE", "OPENCV_FISHEYE", ...); "auto": the
+  // given camera's model, else chosen from the predicted field of view; "": no fit.
+  std::string fit_model = "auto";
+  // Rescale the metric scale to the sparse depth (robust L1 fit, paper) when there is any.
+  bool align_to_sparse_depth = true;
+};
+
+// Wall-clock milliseconds per stage of one predict call.
+struct StageTimes {
+  double prepare_ms = 0;     // image, ray-map and sparse-depth tensors
+  double network_ms = 0;     // forward pass(es) and the model's own post-processing
+  double alignment_ms = 0;   // metric alignment to the sparse depth
+  double camera_fit_ms = 0;  // fit_camera on the predicted rays
+  double total_ms() const { return prepare_ms + network_ms + alignment_ms + camera_fit_ms; }
+};
+
+struct Prediction {
+  at::Tensor rays;      // (H, W, 3) unit rays; zero where invalid
+  at::Tensor distance;  // (H, W) metric radial distance; zero where mask is false
+  at::Tensor depth;     // (H, W) planar depth z = P.z; zero where mask is false
+  at::Tensor points;    // (H, W, 3) metric points; zero where mask is false
+  at::Tensor mask;      // (H, W) bool: valid geometry
+  double metric_scale = 1.0;  // s (after alignment); 1 for scale-less (affine) models
+  double alignment_factor = 1.0;  // the factor the sparse-depth alignment applied to s
+  int64_t sparse_samples = 0;     // valid sparse-depth pixels used
+  std::optional<camera::Camera> fitted_camera;
+  std::string fit_error;           // why no camera was fitted, when fit_model asked for one
+  std::vector<std::string> notes;  // what the prediction did that a user should know
+  StageTimes timing;
+};
+
+// A loaded model. Copies share the weights; predict is const and thread-safe (inference mode,
+// no shared mutable state).
+class Model {
+ public:
+  // Reads a .safetensors checkpoint, dispatching on its metadata "format" ("omnipoint" or
+  // "moge2"), onto `device`. std::runtime_error for unreadable files, std::invalid_argument
+  // for files that are not a model we know; both name the path.
+  static Model load(const std::string& path, at::Device device = at::kCPU);
+
+  // image: (H, W, 3) RGB in [0, 1] (float, or uint8 in [0, 255]), any device.
+  Prediction predict(const at::Tensor& image, const PredictOptions& options = {}) const;
+  // A batch of images of one size (B, H, W, 3) with shared options, in one forward pass; the
+  // sparse depth (if any) must be a depth map (B, H, W). Each result's timing is the batch's.
+  std::vector<Prediction> predict_batch(const at::Tensor& images, const PredictOptions& options = {}) const;
+
+  const std::string& format() const;  // "omnipoint" or "moge2"
+  at::Device device() const;
+  int64_t default_num_tokens() const;
+
+  struct Impl;
+
+ private:
+  explicit Model(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+  std::shared_ptr<const Impl> impl_;
+};
+
+// The sparse input as a (H, W) metric radial-distance map of the image: depth maps checked
+// against the size and converted along `rays` (H, W, 3) when planar; point clouds projected
+// through `camera` (required for them). Zero where there is no sample.
+at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int64_t height,
+                               const at::Tensor& rays, const camera::Camera* camera);
+
+// The camera model "auto" picks for predicted rays (H, W, 3) valid (H, W): PINHOLE when every
+// ray is within 70° of the axis, OPENCV_FISHEYE while none points within 18° of straight
+// back, EQUIRECTANGULAR beyond (panoramas see all around).
+std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid);
+
+// A prediction built from geometry alone (the output writers' input; also the oracle path of
+// the tests): rays (H, W, 3), metric distance (H, W), mask (H, W); points, depth and the
+// zeroing outside the mask follow.
+Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask,
+                                    double metric_scale = 1.0);
+
+}  // namespace omnipoint::predict
+
+namespace omnipoint {
+using predict::Model;
+using predict::Prediction;
+using predict::PredictOptions;
+using predict::SparseDepthInput;
+}  // namespace omnipoint
