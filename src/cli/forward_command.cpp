@@ -14,6 +14,9 @@
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2.h"
+#include "omnipoint/model/omnipoint_config.h"
+#include "omnipoint/model/omnipoint_model.h"
+#include "omnipoint/model/omnipoint_weights.h"
 
 namespace omnipoint::cli {
 
@@ -43,10 +46,30 @@ at::Tensor read_image_array(const std::string& path) {
   return image;
 }
 
-model::MoGe2Model read_model(const std::string& path) {
+// Outputs shared by both model kinds; undefined tensors are not written.
+struct ForwardOutputs {
+  at::Tensor points, mask, metric_scale, rays, distance, normal;
+};
+
+// Runs the checkpoint's network, dispatching on its metadata format: "moge2" (an affine point
+// map, factored into rays and distances) or "omnipoint" (rays and distances, no conditions).
+ForwardOutputs run_model(const std::string& path, const at::Tensor& image, int64_t num_tokens) {
   const io::SafetensorsFile file = io::read_safetensors(path);
+  const auto format = file.metadata.find("format");
+  const std::string kind = format == file.metadata.end() ? "" : format->second;
   try {
-    return model::load_moge2(file.tensors, file.metadata);
+    c10::InferenceMode inference;
+    if (kind == "omnipoint") {
+      model::OmniPointModel network = model::load_omnipoint_model(file.tensors, file.metadata);
+      const int64_t tokens = num_tokens > 0 ? num_tokens : network->config().num_tokens_range[1];
+      const model::OmniPointOutput out = network->forward({image, {}, {}}, tokens);
+      return {out.points, out.mask, out.metric_scale, out.rays, out.distance, {}};
+    }
+    model::MoGe2Model network = model::load_moge2(file.tensors, file.metadata);
+    const int64_t tokens = num_tokens > 0 ? num_tokens : network->config().default_num_tokens();
+    const model::MoGe2Output out = network->forward(image, tokens);
+    const geometry::RaysAndDistance rays = geometry::rays_from_points(out.points);
+    return {out.points, out.mask, out.metric_scale, rays.rays, rays.distance, out.normal};
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("model " + path + ": " + e.what());
   } catch (const std::runtime_error& e) {
@@ -56,12 +79,7 @@ model::MoGe2Model read_model(const std::string& path) {
 
 void run_forward(const ForwardOptions& options) {
   const at::Tensor image = read_image_array(options.input_path);
-  model::MoGe2Model model = read_model(options.model_path);
-  const int64_t num_tokens = options.num_tokens > 0 ? options.num_tokens : model->config().default_num_tokens();
-
-  c10::InferenceMode inference;
-  const model::MoGe2Output output = model->forward(image, num_tokens);
-  const geometry::RaysAndDistance rays = geometry::rays_from_points(output.points);
+  const ForwardOutputs output = run_model(options.model_path, image, options.num_tokens);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {
@@ -70,8 +88,8 @@ void run_forward(const ForwardOptions& options) {
   write("points", output.points);
   write("mask", output.mask);
   write("metric_scale", output.metric_scale);
-  write("rays", rays.rays);
-  write("distance", rays.distance);
+  write("rays", output.rays);
+  write("distance", output.distance);
   write("normal", output.normal);
 }
 
@@ -83,7 +101,7 @@ void add_forward_command(CLI::App& app) {
       "forward",
       "Run the network on a float32 image array (B,3,H,W, RGB in [0,1]) and write its raw outputs "
       "(points, mask, metric_scale, rays, distance, normal where the model has it) as .npy files");
-  command->add_option("--model", options->model_path, "Weights file (.safetensors with the config in its metadata)")
+  command->add_option("--model", options->model_path, "Weights file (.safetensors, MoGe-2 or OmniPoint, with the config in its metadata)")
       ->required();
   command->add_option("--input", options->input_path, "Image array (.npy, float32, B×3×H×W)")->required();
   CLI::Option* num_tokens = command->add_option(

@@ -103,3 +103,31 @@ TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
 }
 
 }  // namespace
+
+TEST_F(ForwardCommand, RunsAnOmniPointCheckpoint) {
+  const fs::path model = dir_ / "tiny.safetensors";
+  const std::string init = std::string(OMNIPOINT_CLI) + " init-model --config " + OMNIPOINT_SOURCE_DIR +
+                           "/examples/models/tiny_omnipoint.json --out " + model.string() + " --seed 3";
+  ASSERT_EQ(std::system(init.c_str()), 0);
+  const fs::path out = dir_ / "out";
+  const CliResult result = run("--model " + model.string() + " --input " + kFixture + "/input.npy --out " + out.string());
+  ASSERT_EQ(result.status, 0) << result.stderr_text;
+  EXPECT_FALSE(fs::exists(out / "normal.npy")) << "the OmniPoint model has no normal head";
+
+  const at::Tensor image = read_npy(kFixture + "/input.npy");
+  const int64_t batch = image.size(0), height = image.size(2), width = image.size(3);
+  const at::Tensor rays = read_npy((out / "rays.npy").string());
+  const at::Tensor distance = read_npy((out / "distance.npy").string());
+  const at::Tensor scale = read_npy((out / "metric_scale.npy").string());
+  const at::Tensor points = read_npy((out / "points.npy").string());
+  const at::Tensor mask = read_npy((out / "mask.npy").string());
+  ASSERT_EQ(rays.sizes(), (std::vector<int64_t>{batch, height, width, 3}));
+  ASSERT_EQ(distance.sizes(), (std::vector<int64_t>{batch, height, width}));
+  ASSERT_EQ(mask.sizes(), (std::vector<int64_t>{batch, height, width}));
+  ASSERT_EQ(scale.sizes(), (std::vector<int64_t>{batch}));
+  EXPECT_LE((rays.norm(2, -1) - 1).abs().max().item<float>(), 1e-5f);
+  EXPECT_GT(distance.min().item<float>(), 0.0f);
+  EXPECT_GE(mask.min().item<float>(), 0.0f);
+  EXPECT_LE(mask.max().item<float>(), 1.0f);
+  expect_close(points, scale.view({batch, 1, 1, 1}) * distance.unsqueeze(-1) * rays, "points = s·d·r");
+}
