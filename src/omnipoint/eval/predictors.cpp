@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "omnipoint/geometry/points.h"
 #include "omnipoint/model/moge2_infer.h"
 
 namespace omnipoint::eval {
@@ -27,14 +28,10 @@ at::Tensor image_batch(const data::Sample& sample, at::Device device) {
 }  // namespace
 
 GeometryPrediction prediction_from_points(const at::Tensor& points, bool is_metric) {
-  const at::Tensor finite = at::isfinite(points).all(-1);
-  const at::Tensor safe = at::where(finite.unsqueeze(-1), points, at::zeros_like(points));
-  const at::Tensor norm = at::linalg_vector_norm(safe, 2, {-1});
-  const at::Tensor has_ray = norm > 0;
+  const geometry::RaysAndDistance factored = geometry::rays_from_points(points);
   GeometryPrediction prediction;
-  prediction.distance = norm;
-  prediction.rays = at::where(has_ray.unsqueeze(-1), safe / norm.clamp_min(1e-30).unsqueeze(-1),
-                              at::zeros_like(safe));
+  prediction.rays = factored.rays;
+  prediction.distance = factored.distance;
   prediction.is_metric = is_metric;
   return prediction;
 }
