@@ -126,10 +126,12 @@ TrainConfig TrainConfig::from_json(const json& root) {
   check_keys(augment, {"p2a", "a2p"}, "augment");
   c.p2a = value_or<bool>(augment, "p2a", false, "augment");
   c.a2p = value_or<bool>(augment, "a2p", false, "augment");
-  // The bidirectional augmentation lives in the augment layer, which this build does not have.
+  // The augment layer has Perspective-to-Any and Any-to-Perspective, but the training loop
+  // does not call them yet: refuse rather than silently train without them.
   if (c.p2a || c.a2p)
     fail(c.p2a ? "augment.p2a" : "augment.a2p",
-         "not available: this build has no augment layer (Perspective-to-Any / Any-to-Perspective); set it to false");
+         "not available in training yet: the trainer does not call the augment layer "
+         "(Perspective-to-Any / Any-to-Perspective); set it to false");
 
   const json& loss = object_at(root, "loss", "config");
   check_keys(loss, {"point_loss", "align_trunc", "weights", "local"}, "loss");
