@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "omnipoint/data/dataset_index.h"
+#include "support/cli_run.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_config.h"
@@ -25,17 +26,8 @@
 namespace {
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int status;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& path) {
-  std::ifstream file(path);
-  std::stringstream s;
-  s << file.rdbuf();
-  return s.str();
-}
+using omnipoint::test::CliRun;
+using omnipoint::test::slurp;
 
 std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;
@@ -54,12 +46,7 @@ const fs::path& work_dir() {
   return dir;
 }
 
-CliRun run_cli(const std::string& args) {
-  const fs::path out = work_dir() / "stdout", err = work_dir() / "stderr";
-  const std::string command = std::string(OMNIPOINT_CLI) + " " + args + " >" + out.string() + " 2>" + err.string();
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-}
+CliRun run_cli(const std::string& args) { return omnipoint::test::run_omnipoint(args, work_dir()); }
 
 void expect_one_error_line(const CliRun& run, const std::string& needle) {
   EXPECT_NE(run.status, 0);

@@ -14,31 +14,20 @@
 #include <sstream>
 #include <string>
 
+#include "support/cli_run.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
 const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge_metrics_a";
 
-struct CliRun {
-  int status;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& path) {
-  std::ifstream file(path);
-  std::stringstream s;
-  s << file.rdbuf();
-  return s.str();
-}
+using omnipoint::test::CliRun;
+using omnipoint::test::slurp;
 
 CliRun run_cli(const std::string& args) {
   const fs::path dir = fs::temp_directory_path() / ("omnipoint_metrics_cli_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const std::string command = std::string(OMNIPOINT_CLI) + " metrics " + args + " >" + (dir / "out").string() +
-                              " 2>" + (dir / "err").string();
-  const int status = std::system(command.c_str());
-  CliRun run{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "out"), slurp(dir / "err")};
+  CliRun run = omnipoint::test::run_omnipoint("metrics " + args, dir);
   fs::remove_all(dir);
   return run;
 }

@@ -1,0 +1,34 @@
+#pragma once
+// Running the built `omnipoint` binary (the OMNIPOINT_CLI macro) from end-to-end tests.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace omnipoint::test {
+
+struct CliRun {
+  int status;  // the exit code, -1 if the process did not exit normally
+  std::string out, err;
+};
+
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// Runs `omnipoint ARGS`, its stdout and stderr captured through files in `scratch`.
+inline CliRun run_omnipoint(const std::string& args, const std::filesystem::path& scratch) {
+  std::filesystem::create_directories(scratch);
+  const std::filesystem::path out = scratch / "stdout", err = scratch / "stderr";
+  const std::string command = std::string(OMNIPOINT_CLI) + " " + args + " >" + out.string() + " 2>" + err.string();
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+}  // namespace omnipoint::test
