@@ -13,16 +13,13 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/npy.h"
+#include "support/cli_run.h"
 
 namespace omnipoint::camera {
 namespace {
 namespace fs = std::filesystem;
 
-struct Result {
-  int status;
-  std::string out;
-  std::string err;
-};
+using Result = omnipoint::test::CliRun;
 
 class CameraCli : public ::testing::Test {
  protected:
@@ -32,12 +29,7 @@ class CameraCli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  Result run(const std::string& arguments) const {
-    const auto out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    const std::string command = std::string(OMNIPOINT_CLI) + " " + arguments + " >" + out + " 2>" + err;
-    const int status = std::system(command.c_str());
-    return {WEXITSTATUS(status), io::read_file(out), io::read_file(err)};
-  }
+  Result run(const std::string& arguments) const { return test::run_omnipoint(arguments, dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
   // A failure: non-zero exit, one line on stderr naming the problem, no output file.
