@@ -17,9 +17,11 @@
 
 #include "cli/commands.h"
 #include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/image.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/train/checkpoint.h"
+#include "omnipoint/train/curves.h"
 #include "omnipoint/train/distributed.h"
 #include "omnipoint/train/launcher.h"
 #include "omnipoint/train/trainer.h"
@@ -57,6 +59,19 @@ void truncate_log(const std::string& path, int64_t step) {
   io::write_file_atomically(path, [&](std::ostream& out) { out << kept; });
 }
 
+// curves.png beside the log (train/curves.h); a build without image I/O writes none.
+void write_curves(const std::string& log_path, const std::string& png_path) {
+  if (!io::image_io_available() || !fs::exists(log_path)) return;
+  std::vector<json> records;
+  std::istringstream lines(io::read_file(log_path));
+  for (std::string line; std::getline(lines, line);) {
+    const json record = json::parse(line, nullptr, false);
+    if (!record.is_discarded()) records.push_back(record);
+  }
+  if (records.empty()) return;
+  io::write_image_png(png_path, train::render_training_curves(records));
+}
+
 void append_line(const std::string& path, const json& record) {
   std::ofstream out(path, std::ios::app);
   out << record.dump() << "\n";
@@ -86,6 +101,7 @@ void run_train(const TrainOptions& options) {
   const fs::path out_dir(config.output_dir);
   const std::string checkpoint_dir = (out_dir / "checkpoints").string();
   const std::string log_path = (out_dir / "log.jsonl").string();
+  const std::string curves_path = (out_dir / "curves.png").string();
   if (writer) {
     fs::create_directories(checkpoint_dir);
     if (resume) truncate_log(log_path, trainer.step());
@@ -119,6 +135,7 @@ void run_train(const TrainOptions& options) {
                      rate, clock_text(eta).c_str());
       if (config.checkpoint_every > 0 && record.step % config.checkpoint_every == 0) {
         train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
+        write_curves(log_path, curves_path);
         saved = true;
       }
     }
@@ -129,6 +146,7 @@ void run_train(const TrainOptions& options) {
   }
   if (!writer) return;
   if (!saved) train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
+  write_curves(log_path, curves_path);
   if (trainer.done()) {
     const auto metadata = model::omnipoint_metadata(network->config());
     io::write_safetensors((out_dir / "model.safetensors").string(), trainer.state().model, metadata);

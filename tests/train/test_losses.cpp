@@ -104,6 +104,13 @@ TEST(Losses, RayMetricAndMaskHandComputed) {
   EXPECT_EQ(metric[1].item<double>(), 0.0);
   EXPECT_EQ(metric[2].item<double>(), 0.0);
 
+  // Gauge: log-distances {log 2, log 8} on the mask average to log 4 (the unlabelled pixel's
+  // 1e6 does not count); an item without labels gives 0.
+  const at::Tensor d = at::tensor({2.0, 8.0, 1e6, 5.0, 5.0, 5.0}, kDouble).view({2, 1, 3});
+  const at::Tensor gauge = gauge_loss(d, bools({1, 1, 0, 0, 0, 0}).view({2, 1, 3}));
+  EXPECT_NEAR(gauge[0].item<double>(), std::pow(std::log(4.0), 2), 1e-14);
+  EXPECT_EQ(gauge[1].item<double>(), 0.0);
+
   // Logit 0 costs log 2 on a positive or negative pixel, nothing on an unknown one.
   const at::Tensor mask = mask_loss(at::zeros({1, 1, 4}, kDouble), bools({1, 0, 0, 0}).view({1, 1, 4}),
                                     bools({0, 1, 0, 0}).view({1, 1, 4}));
@@ -222,6 +229,8 @@ TEST(Losses, GradientsMatchFiniteDifferences) {
   expect_gradient_matches(
       [&](const at::Tensor& s) { return metric_scale_loss(s, scale, bools({1, 1})); },
       at::tensor({0.3, -0.2}, kDouble));
+  // The gauge term.
+  expect_gradient_matches([&](const at::Tensor& ld) { return gauge_loss(ld.exp(), mask); }, log_d);
   // L_normal on a perturbed surface (angles between 3° and 90°, away from the clamps).
   const at::Tensor bumpy = gt + 0.15 * at::randn({2, 4, 5, 3}, kDouble);
   expect_gradient_matches([&](const at::Tensor& p) { return normal_loss(p, gt, mask); }, bumpy);

@@ -15,7 +15,10 @@
 #include <unistd.h>
 
 #include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/image.h"
+#include "omnipoint/camera/camera.h"
 #include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/model/state_dict.h"
 #include "omnipoint/train/batch_source.h"
 #include "omnipoint/train/checkpoint.h"
@@ -94,14 +97,17 @@ std::string temp_dir(const std::string& name) {
 
 TEST(TrainConfig, RejectsBadConfigsClearly) {
   json config = tiny_config("x");
-  config["augment"] = {{"p2a", true}};
+  config["augment"] = {{"a2p", true}};
   try {
     TrainConfig::from_json(config);
-    FAIL() << "p2a accepted";
+    FAIL() << "A2P without a teacher accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("augment.p2a"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("not available"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("augment.a2p_teacher"), std::string::npos) << e.what();
   }
+  config["augment"] = {{"p2a", true}, {"p2a_probability", 1.5}};
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  config["augment"] = {{"p2a", true}, {"p2a_probabilty", 0.5}};
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
   config = tiny_config("x");
   config["stages"][0]["learning_rate"] = 1;
   EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
@@ -137,6 +143,126 @@ TEST(BatchSource, BatchesAreAFunctionOfSeedStepAndRank) {
   const at::Tensor sparse = a.condition_sparse_depth, has = sparse > 0;
   if (has.any().item<bool>())
     EXPECT_TRUE(at::equal(sparse.masked_select(has), a.targets.distance.masked_select(has)));
+}
+
+// One camera for every item, augmentations as given.
+json single_camera_config(const std::string& spec, const json& augment) {
+  json config = tiny_config("x");
+  config["data"]["datasets"][0]["synth"]["cameras"] = {spec};
+  config["augment"] = augment;
+  return config;
+}
+
+TEST(BatchSource, P2ARendersPerspectiveItemsIntoWideCamerasFromStageTwo) {
+  const std::string pinhole = "PINHOLE 28 28 20 20 14 14";
+  const TrainConfig config =
+      TrainConfig::from_json(single_camera_config(pinhole, {{"p2a", true}, {"p2a_probability", 1.0}}));
+  const BatchSource source(config);
+  const at::Tensor pinhole_rays = camera::parse_camera(pinhole).ray_map(at::kFloat).rays;
+  // Stage 1 (no conditions): the items as the data gives them.
+  const TrainingBatch plain = source.batch(2, false);
+  for (int64_t k = 0; k < 2; ++k) EXPECT_TRUE(at::equal(plain.targets.rays[k], pinhole_rays));
+  EXPECT_TRUE(at::equal(plain.targets.mask_negative, plain.targets.mask.logical_not()));
+  // Stage 2: every item seen through a virtual fisheye or panorama, deterministically.
+  const TrainingBatch augmented = source.batch(2, true), again = source.batch(2, true);
+  EXPECT_TRUE(at::equal(augmented.image, again.image));
+  EXPECT_TRUE(at::equal(augmented.targets.distance, again.targets.distance));
+  for (int64_t k = 0; k < 2; ++k) {
+    const at::Tensor rays = augmented.targets.rays[k];
+    EXPECT_FALSE(at::allclose(rays, pinhole_rays)) << "item " << k << " kept the pinhole";
+    // A wide camera: some rays look more than 60° off the axis (the pinhole's reach ~35°).
+    EXPECT_LT(rays.select(-1, 2).min().item<double>(), 0.5) << "item " << k;
+    const at::Tensor mask = augmented.targets.mask[k];
+    EXPECT_GT(mask.sum().item<int64_t>(), 0) << "item " << k;
+    EXPECT_LT(mask.sum().item<int64_t>(), mask.numel()) << "item " << k;  // beyond the source frustum
+    EXPECT_TRUE((augmented.targets.distance[k].masked_select(mask) > 0).all().item<bool>());
+  }
+  // Unlabelled pixels of a rendered view are unknown, not sky.
+  EXPECT_FALSE(augmented.targets.mask_negative.any().item<bool>());
+}
+
+TEST(BatchSource, A2PReplacesWideLabelsWithTheTeachersStitchedPrediction) {
+  const std::string dir = temp_dir("a2p_teacher");
+  const std::string teacher_path = dir + "/teacher.safetensors";
+  const TrainConfig base = TrainConfig::from_json(tiny_config("x"));
+  const model::OmniPointModel teacher = tiny_model(base);
+  io::write_safetensors(teacher_path, model::state_dict(*teacher), model::omnipoint_metadata(teacher->config()));
+
+  const std::string fisheye = "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0";
+  const json augment = {{"a2p", true}, {"a2p_teacher", teacher_path}, {"a2p_teacher_tokens", 4}};
+  const BatchSource source(TrainConfig::from_json(single_camera_config(fisheye, augment)));
+  const TrainingBatch plain = source.batch(1, false), pseudo = source.batch(1, true);
+  EXPECT_TRUE(at::equal(plain.image, pseudo.image));  // the image itself is kept
+  EXPECT_TRUE(plain.targets.metric.all().item<bool>());
+  EXPECT_FALSE(pseudo.targets.metric.any().item<bool>());  // pseudo-labels are not metric
+  EXPECT_FALSE(pseudo.targets.mask_negative.any().item<bool>());
+  const at::Tensor mask = pseudo.targets.mask;
+  EXPECT_GT(mask.sum().item<int64_t>(), 0);
+  EXPECT_LT(mask.sum().item<int64_t>(), plain.targets.rays.select(-1, 2).ne(0).sum().item<int64_t>());
+  EXPECT_TRUE((pseudo.targets.distance.masked_select(mask) > 0).all().item<bool>());
+  // The labels are the teacher's, not the ground truth.
+  EXPECT_FALSE(at::allclose(pseudo.targets.distance.masked_select(mask), plain.targets.distance.masked_select(mask)));
+  // The sparse-depth condition comes from the pseudo-labels.
+  const at::Tensor sparse = pseudo.condition_sparse_depth, has = sparse > 0;
+  EXPECT_TRUE(at::equal(sparse.masked_select(has), pseudo.targets.distance.masked_select(has)));
+
+  // A teacher that cannot be read is named.
+  json missing = augment;
+  missing["a2p_teacher"] = dir + "/none.safetensors";
+  try {
+    BatchSource bad(TrainConfig::from_json(single_camera_config(fisheye, missing)));
+    FAIL() << "a missing teacher was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("A2P teacher"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Trainer, StageTwoTrainsWithP2AAndA2P) {
+  const std::string dir = temp_dir("p2a_a2p");
+  const TrainConfig base = TrainConfig::from_json(tiny_config("x"));
+  const model::OmniPointModel teacher = tiny_model(base);
+  io::write_safetensors(dir + "/teacher.safetensors", model::state_dict(*teacher),
+                        model::omnipoint_metadata(teacher->config()));
+  json json_config = tiny_config(dir);
+  json_config["augment"] = {{"p2a", true}, {"p2a_probability", 0.5}, {"a2p", true},
+                            {"a2p_teacher", dir + "/teacher.safetensors"}};
+  const TrainConfig config = TrainConfig::from_json(json_config);
+  Trainer trainer(config, tiny_model(config));
+  while (!trainer.done()) {
+    const StepRecord record = trainer.train_step();
+    EXPECT_FALSE(record.skipped) << "step " << record.step;
+    EXPECT_TRUE(std::isfinite(record.loss)) << "step " << record.step;
+  }
+  fs::remove_all(dir);
+}
+
+// The conditioning ablations fine-tune one stage-1 model with other condition settings.
+TEST(BuildModel, OmniPointInitCanChangeOnlyTheConditioning) {
+  const std::string dir = temp_dir("init_conditioning");
+  const TrainConfig base = TrainConfig::from_json(tiny_config("x"));
+  const model::OmniPointModel source = tiny_model(base);
+  const std::string path = dir + "/stage1.safetensors";
+  io::write_safetensors(path, model::state_dict(*source), model::omnipoint_metadata(source->config()));
+
+  json config = tiny_config(dir);
+  config.erase("model");
+  config["init"] = {{"from", "omnipoint"}, {"path", path}};
+  config["model"] = {{"conditioning", {{"encoder_dim", 8}, {"splat_radius", 2}, {"state_embeddings", false},
+                                       {"gaussian_smoothing", false}}}};
+  const model::OmniPointModel changed = build_model(TrainConfig::from_json(config));
+  EXPECT_FALSE(changed->config().conditioning.state_embeddings);
+  EXPECT_FALSE(changed->config().conditioning.gaussian_smoothing);
+  const auto before = model::state_dict(*source), after = model::state_dict(*changed);
+  EXPECT_LT(after.size(), before.size());  // the state embeddings are gone
+  for (const auto& [name, tensor] : after) {
+    ASSERT_TRUE(before.count(name)) << name;
+    EXPECT_TRUE(at::equal(tensor, before.at(name))) << name;
+  }
+  // Anything but the conditioning is the file's, not the config's.
+  config["model"]["encoder"] = tiny_model_json()["encoder"];
+  EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  fs::remove_all(dir);
 }
 
 TEST(Trainer, ScheduleEmaAndStageThreeFreezing) {
@@ -261,6 +387,32 @@ TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
   EXPECT_NO_THROW(read_checkpoint(root + "/interrupted/checkpoints/step_00000005"));
   EXPECT_THROW(read_checkpoint(root + "/nothing"), std::runtime_error);
   EXPECT_NE(run_cli("--config " + interrupted + " --resume " + root + "/nothing"), 0);
+  fs::remove_all(root);
+}
+
+TEST(TrainCli, LogsBenchmarkScoresAndDrawsCurves) {
+  const std::string root = temp_dir("curves");
+  json config = tiny_config(root + "/run");
+  config["eval_every"] = 2;
+  config["eval_batches"] = 1;
+  std::ofstream(root + "/run.json") << config.dump(2);
+  ASSERT_EQ(run_cli("--config " + root + "/run.json"), 0);
+  int evaluations = 0;
+  std::istringstream lines(io::read_file(root + "/run/log.jsonl"));
+  for (std::string line; std::getline(lines, line);) {
+    const json record = json::parse(line);
+    if (!record.contains("eval")) continue;
+    ++evaluations;
+    const double delta1 = record["eval"].at("points_delta1").get<double>();
+    EXPECT_GE(delta1, 0.0);
+    EXPECT_LE(delta1, 1.0);
+    EXPECT_GT(record["eval"].at("points_rel").get<double>(), 0.0);
+  }
+  EXPECT_EQ(evaluations, 2);  // steps 2 and 4 of 5
+  if (io::image_io_available()) {
+    const at::Tensor curves = io::read_image(root + "/run/curves.png");
+    EXPECT_EQ(curves.size(1), 1200);
+  }
   fs::remove_all(root);
 }
 

@@ -3,6 +3,8 @@
 #include <ATen/ATen.h>
 
 #include <cmath>
+#include <set>
+#include <string>
 
 namespace omnipoint::camera {
 namespace {
@@ -30,6 +32,14 @@ FieldOfView field_of_view(const Camera& camera) {
 
 double valid_fraction(const Camera& camera) {
   return camera.ray_map(at::kFloat).valid.to(at::kDouble).mean().item<double>();
+}
+
+CameraClass camera_class(const Camera& camera) {
+  static const std::set<std::string> wide{
+      "OPENCV_FISHEYE", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE",
+      "RAD_TAN_THIN_PRISM_FISHEYE", "FOV", "MEI", "UCM", "EUCM", "DOUBLE_SPHERE"};
+  if (camera.model_name() == "EQUIRECTANGULAR") return CameraClass::kPanorama;
+  return wide.count(camera.model_name()) ? CameraClass::kWide : CameraClass::kPerspective;
 }
 
 }  // namespace omnipoint::camera

@@ -15,6 +15,13 @@ struct FieldOfView {
 };
 FieldOfView field_of_view(const Camera& camera);
 
+// The kind of lens a camera model stands for (benchmark splits, which items P2A/A2P take):
+// EQUIRECTANGULAR -> kPanorama; the fisheye, unified and FOV models (OPENCV_FISHEYE,
+// *_FISHEYE, FOV, MEI, UCM, EUCM, DOUBLE_SPHERE) -> kWide; pinhole and OpenCV-style
+// models -> kPerspective. By model, not by the parameters' actual field of view.
+enum class CameraClass { kPerspective, kWide, kPanorama };
+CameraClass camera_class(const Camera& camera);
+
 // Share of the pixels whose centre unprojects to a valid ray.
 double valid_fraction(const Camera& camera);
 

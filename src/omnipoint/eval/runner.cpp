@@ -8,9 +8,9 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
-#include <set>
 #include <stdexcept>
 
+#include "omnipoint/camera/camera_info.h"
 #include "omnipoint/data/dataset_index.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 
@@ -28,11 +28,12 @@ std::string split_name(Split split) {
 }
 
 Split camera_split(const camera::Camera& camera) {
-  static const std::set<std::string> wide{
-      "OPENCV_FISHEYE", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE",
-      "RAD_TAN_THIN_PRISM_FISHEYE", "FOV", "MEI", "UCM", "EUCM", "DOUBLE_SPHERE"};
-  if (camera.model_name() == "EQUIRECTANGULAR") return Split::kPanorama;
-  return wide.count(camera.model_name()) ? Split::kLargeFov : Split::kSmallFov;
+  switch (camera::camera_class(camera)) {
+    case camera::CameraClass::kPanorama: return Split::kPanorama;
+    case camera::CameraClass::kWide: return Split::kLargeFov;
+    case camera::CameraClass::kPerspective: break;
+  }
+  return Split::kSmallFov;
 }
 
 std::string Mode::name() const {

@@ -7,12 +7,18 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "omnipoint/augment/p2a.h"
+#include "omnipoint/augment/teacher.h"
+#include "omnipoint/augment/virtual_camera.h"
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/camera/camera_info.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/data/synth/random.h"
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/omnipoint_weights.h"
 
 namespace omnipoint::train {
 namespace {
@@ -28,6 +34,32 @@ data::Sample fit_to_size(const data::Sample& sample, int64_t width, int64_t heig
   else crop_h = std::max<int64_t>(1, w * height / width);
   const data::Sample cropped = data::crop_sample(sample, (w - crop_w) / 2, (h - crop_h) / 2, crop_w, crop_h);
   return data::resize_sample(cropped, width, height);
+}
+
+// P2A: the sample seen through a random virtual fisheye or panorama of the same size.
+data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
+  const int64_t width = sample.camera.width(), height = sample.camera.height();
+  augment::VirtualCameraDistribution distribution;
+  distribution.fisheye_size = std::max(width, height);
+  distribution.panorama_width = 2 * std::max(width, height);
+  augment::VirtualView view = augment::sample_virtual_view(distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
+  view.camera = view.camera.resized(width, height);
+  const augment::P2AResult rendered =
+      augment::perspective_to_any(sample.camera, sample.image, sample.distance, sample.mask, view);
+  return {rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(), rendered.mask.contiguous(),
+          sample.metric};
+}
+
+// A2P: the sample's labels replaced by the teacher's, stitched back from one random view.
+data::Sample any_to_perspective(const data::Sample& sample, const augment::Teacher& teacher, uint64_t seed) {
+  augment::A2PViewDistribution distribution;
+  distribution.min_size = distribution.max_size = std::max(sample.camera.width(), sample.camera.height());
+  const at::Tensor camera_valid = sample.camera.ray_map(at::kFloat).valid;
+  const augment::PerspectiveView view =
+      augment::sample_perspective_view(sample.camera, distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
+  const augment::A2PResult result = augment::any_to_perspective(sample.camera, sample.image, view, teacher, camera_valid);
+  return {sample.camera, sample.image, result.label.distance.to(at::kFloat).contiguous(), result.label.mask.contiguous(),
+          false};
 }
 
 }  // namespace
@@ -53,6 +85,19 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     }
     folders_.push_back(std::move(folders));
   }
+  if (config_.a2p) {
+    model::OmniPointModel teacher{nullptr};
+    try {
+      const io::SafetensorsFile file = io::read_safetensors(config_.a2p_teacher);
+      teacher = model::load_omnipoint_model(file.tensors, file.metadata);
+    } catch (const std::exception& error) {
+      throw std::runtime_error("A2P teacher \"" + config_.a2p_teacher + "\": " + error.what());
+    }
+    teacher->eval();
+    for (at::Tensor& parameter : teacher->parameters()) parameter.set_requires_grad(false);
+    const int64_t tokens = config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
+    teacher_ = augment::omnipoint_teacher(teacher, tokens);
+  }
 }
 
 TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
@@ -70,7 +115,7 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
       pick -= config_.datasets[source++].weight;
     const DatasetSource& dataset = config_.datasets[source];
 
-    const data::Sample sample = [&] {
+    const data::Sample loaded = [&] {
       if (dataset.synth) {
         const SynthSource& synth = dataset.synth_source;
         const auto kind = data::synth::parse_scene_kind(
@@ -84,17 +129,31 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
       return fit_to_size(data::read_sample(folders[random.integer(0, static_cast<int>(folders.size()) - 1)]),
                          width, height);
     }();
+    // The augmentations draw only when enabled, so a config without them sees the same items.
+    data::Sample sample = loaded;
+    const camera::CameraClass lens = camera::camera_class(loaded.camera);
+    bool sky_known = true;
+    if (conditions && config_.p2a && lens == camera::CameraClass::kPerspective &&
+        random.chance(config_.p2a_probability)) {
+      sample = perspective_to_any(loaded, random.next_u64());
+      sky_known = false;
+    } else if (conditions && config_.a2p && lens != camera::CameraClass::kPerspective &&
+               random.chance(config_.a2p_probability)) {
+      sample = any_to_perspective(loaded, teacher_, random.next_u64());
+      sky_known = false;
+    }
     const camera::Rays ray_map = sample.camera.ray_map(at::kFloat);
     const at::Tensor camera_valid = ray_map.valid;
     images.push_back(sample.image.permute({2, 0, 1}));
     rays.push_back(ray_map.rays);
     distances.push_back(sample.distance);
     masks.push_back(sample.mask);
-    negatives.push_back(camera_valid & ~sample.mask);
+    negatives.push_back(sky_known ? camera_valid & ~sample.mask : at::zeros_like(sample.mask));
     metric.push_back(at::full({}, sample.metric, at::kBool));
 
     // Conditions (paper: each enabled with probability 0.9 from stage 2; sparse depth sampled
     // from the GT at 0.05–0.1 % of the pixels).
+    // (An A2P item's "GT" is its pseudo-label.)
     const bool with_rays = conditions && random.chance(config_.condition_probability);
     const bool with_depth = conditions && random.chance(config_.condition_probability);
     cond_rays.push_back(with_rays ? ray_map.rays.permute({2, 0, 1}) : at::zeros({3, height, width}));

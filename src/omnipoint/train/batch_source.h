@@ -5,12 +5,26 @@
 // generators keyed by that index. The "data position" of a run is therefore its step alone:
 // a resumed run sees exactly the batches the uninterrupted one would have seen, and ranks
 // read disjoint shards of the same global batch.
+//
+// Bidirectional augmentation (paper §3.4), from stage 2 on, when the config enables it:
+// - P2A: a perspective item (camera::CameraClass) is, with p2a_probability, rendered into a
+//   random virtual fisheye or panorama (augment::sample_virtual_view, resized to the training
+//   size) by augment::perspective_to_any: its image, rays, distances and mask.
+// - A2P: a wide-FoV item (fisheye or panorama) is, with a2p_probability, treated as
+//   unlabelled: one random pinhole view of it goes through the teacher (an OmniPoint
+//   checkpoint, e.g. the stage-1 model, with the view's rays as intrinsics) and the
+//   prediction, stitched back, replaces its labels (augment::any_to_perspective). Pseudo-
+//   labels count as non-metric, and its sparse-depth condition is drawn from them, since an
+//   unlabelled image has no other depth.
+// Both leave unlabelled pixels unknown: they are not mask-head negatives (sky), unlike the
+// camera-valid unlabelled pixels of a labelled sample.
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "omnipoint/augment/a2p.h"
 #include "omnipoint/train/losses.h"
 #include "omnipoint/train/train_config.h"
 
@@ -26,7 +40,8 @@ struct TrainingBatch {
 
 class BatchSource {
  public:
-  // Folder datasets are listed here (std::runtime_error for a missing or empty directory).
+  // Folder datasets are listed and the A2P teacher is loaded here (std::runtime_error for a
+  // missing or empty directory or an unreadable teacher).
   explicit BatchSource(const TrainConfig& config);
 
   // `conditions`: whether the conditions may be on (stages 2 and 3). `stream` separates
@@ -38,6 +53,7 @@ class BatchSource {
   TrainConfig config_;
   std::vector<std::vector<std::string>> folders_;  // per dataset source: its sample folders
   double total_weight_ = 0;
+  augment::Teacher teacher_;  // A2P's, when enabled
 };
 
 // A seed for a CPU generator derived from (seed, stream, index) by SplitMix64 mixing.

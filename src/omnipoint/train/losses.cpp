@@ -91,6 +91,15 @@ at::Tensor metric_scale_loss(const at::Tensor& log_pred_scale, const at::Tensor&
   return at::where(ok, (log_pred_scale - target).square(), at::zeros_like(log_pred_scale));
 }
 
+at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask) {
+  check_map(distance, 3, "predicted distance");
+  const at::Tensor weight = mask.to(distance.scalar_type());
+  const at::Tensor count = weight.sum({1, 2});
+  const at::Tensor log_distance = at::where(mask, distance.clamp_min(1e-12).log(), at::zeros_like(distance));
+  const at::Tensor mean = log_distance.sum({1, 2}) / count.clamp_min(1.0);
+  return at::where(count > 0, mean.square(), at::zeros_like(mean));
+}
+
 at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points, const at::Tensor& mask) {
   check_map(pred_points, 4, "predicted points");
   const int64_t height = pred_points.size(1), width = pred_points.size(2);
@@ -259,6 +268,7 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
     add("metric", w.metric,
         metric_scale_loss(output.log_metric_scale, losses.scale, targets.metric.to(output.distance.device())));
   if (w.normal != 0.0) add("normal", w.normal, normal_loss(points, gt_points, mask));
+  if (w.gauge != 0.0) add("gauge", w.gauge, gauge_loss(output.distance, mask));
   if (w.local != 0.0) {
     at::Tensor local = at::zeros_like(total);
     for (const int64_t level : config.local.levels)

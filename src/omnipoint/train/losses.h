@@ -46,6 +46,11 @@ struct LossWeights {
   double normal = 1.0;
   double local = 1.0;
   double mask = 1.0;
+  // Not in the paper (0 = its objective): fixes the free global scale of the relative
+  // distances, which every other geometric term ignores. Without it that scale can drift
+  // quickly when training from scratch at high learning rates, and L_metric's target s*
+  // drifts with it (observed: L_metric rising to ~8 within 100 steps at lr 5e-4).
+  double gauge = 0.0;
 };
 
 // MoGe's multi-scale local loss: at each level, patches of radius 0.5/level of the image
@@ -103,6 +108,10 @@ at::Tensor ray_loss(const at::Tensor& pred_rays, const at::Tensor& gt_rays, cons
 // (log ŝ − log s*)² on items that are metric and have a positive finite s*; 0 elsewhere.
 at::Tensor metric_scale_loss(const at::Tensor& log_pred_scale, const at::Tensor& target_scale,
                              const at::Tensor& metric);
+
+// The gauge term: (mean over the labelled pixels of log d̂)² per item, i.e. it keeps the
+// geometric mean of the predicted relative distances at 1; 0 for items without labels.
+at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask);
 
 // MoGe's normal loss: the angles between the predicted and GT normals of the four triangles of
 // every 2×2 pixel cell with three labelled corners, clamped to [1°, 90°], smoothed (Huber,

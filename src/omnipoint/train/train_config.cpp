@@ -79,6 +79,8 @@ TrainConfig TrainConfig::from_json(const json& root) {
   require(c.init_from == "scratch" || !c.init_path.empty(), "init.path", "required to initialise from " + c.init_from);
   require((c.init_from != "scratch" && c.init_from != "dinov2") || !c.model.is_null(), "model",
           "required (the network configuration) to initialise from " + c.init_from);
+  if (c.init_from == "omnipoint" && !c.model.is_null())
+    check_keys(c.model, {"conditioning"}, "model (from an OmniPoint checkpoint only \"conditioning\" may change)");
 
   const json& data = object_at(root, "data", "config");
   check_keys(data, {"batch_size", "image_size", "num_tokens", "datasets"}, "data");
@@ -123,22 +125,26 @@ TrainConfig TrainConfig::from_json(const json& root) {
           "conditions.sparse_ratio", "must be [min, max] with 0 < min <= max <= 1");
 
   const json& augment = object_at(root, "augment", "config");
-  check_keys(augment, {"p2a", "a2p"}, "augment");
+  check_keys(augment, {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher", "a2p_teacher_tokens"},
+             "augment");
   c.p2a = value_or<bool>(augment, "p2a", false, "augment");
+  c.p2a_probability = value_or<double>(augment, "p2a_probability", c.p2a_probability, "augment");
+  require(c.p2a_probability >= 0 && c.p2a_probability <= 1, "augment.p2a_probability", "must lie in [0, 1]");
   c.a2p = value_or<bool>(augment, "a2p", false, "augment");
-  // The augment layer has Perspective-to-Any and Any-to-Perspective, but the training loop
-  // does not call them yet: refuse rather than silently train without them.
-  if (c.p2a || c.a2p)
-    fail(c.p2a ? "augment.p2a" : "augment.a2p",
-         "not available in training yet: the trainer does not call the augment layer "
-         "(Perspective-to-Any / Any-to-Perspective); set it to false");
+  c.a2p_probability = value_or<double>(augment, "a2p_probability", c.a2p_probability, "augment");
+  require(c.a2p_probability >= 0 && c.a2p_probability <= 1, "augment.a2p_probability", "must lie in [0, 1]");
+  c.a2p_teacher = value_or<std::string>(augment, "a2p_teacher", "", "augment");
+  c.a2p_teacher_tokens = value_or<int64_t>(augment, "a2p_teacher_tokens", 0, "augment");
+  require(!c.a2p || !c.a2p_teacher.empty(), "augment.a2p_teacher",
+          "A2P needs a teacher: the path of an OmniPoint checkpoint (e.g. the stage-1 model)");
+  require(c.a2p_teacher_tokens >= 0, "augment.a2p_teacher_tokens", "must be >= 0 (0: the largest of num_tokens)");
 
   const json& loss = object_at(root, "loss", "config");
   check_keys(loss, {"point_loss", "align_trunc", "weights", "local"}, "loss");
   c.loss.point_loss = parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
   c.loss.align_trunc = value_or<double>(loss, "align_trunc", c.loss.align_trunc, "loss");
   const json& weights = object_at(loss, "weights", "loss");
-  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask"}, "loss.weights");
+  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask", "gauge"}, "loss.weights");
   LossWeights& w = c.loss.weights;
   w.point = value_or<double>(weights, "point", w.point, "loss.weights");
   w.ray = value_or<double>(weights, "ray", w.ray, "loss.weights");
@@ -146,6 +152,7 @@ TrainConfig TrainConfig::from_json(const json& root) {
   w.normal = value_or<double>(weights, "normal", w.normal, "loss.weights");
   w.local = value_or<double>(weights, "local", w.local, "loss.weights");
   w.mask = value_or<double>(weights, "mask", w.mask, "loss.weights");
+  w.gauge = value_or<double>(weights, "gauge", w.gauge, "loss.weights");
   const json& local = object_at(loss, "local", "loss");
   check_keys(local, {"levels", "patches_per_item", "min_points"}, "loss.local");
   c.loss.local.levels = value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");

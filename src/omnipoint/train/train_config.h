@@ -3,16 +3,19 @@
 // {
 //   "output_dir": "runs/small",            checkpoints, log.jsonl
 //   "seed": 0, "threads": 1,                threads 1 + a seed = deterministic, resumable bit-exactly
-//   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2")
+//   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2"); with init
+//                                           "omnipoint" only {"conditioning": {...}} (ablations)
 //   "init": {"from": "scratch" | "dinov2" | "moge2" | "omnipoint", "path": FILE,
 //            "output": "ray_distance" | "xyz"  (moge2 only)},
 //   "data": {"batch_size": 8, "image_size": [W, H], "num_tokens": [min, max],
 //            "datasets": [{"weight": 1, "synth": {"scenes": ["indoor", ...], "cameras": [SPEC, ...]}},
 //                         {"weight": 1, "folders": DIR}]},     DIR holds sample folders (data/sample.h)
 //   "conditions": {"probability": 0.9, "sparse_ratio": [0.0005, 0.001]},   from stage 2 on
-//   "augment": {"p2a": false, "a2p": false},
+//   "augment": {"p2a": false, "p2a_probability": 0.02,     from stage 2 on, see batch_source.h
+//               "a2p": false, "a2p_probability": 1, "a2p_teacher": FILE, "a2p_teacher_tokens": 0},
 //   "loss": {"point_loss": "decoupled" | "naive" | "disjoint", "align_trunc": 1,
-//            "weights": {"point": 1, "ray": 1, "metric": 1, "normal": 1, "local": 1, "mask": 1},
+//            "weights": {"point": 1, "ray": 1, "metric": 1, "normal": 1, "local": 1, "mask": 1,
+//                        "gauge": 0},     gauge: not the paper's, see losses.h
 //            "local": {"levels": [4, 16, 64], "patches_per_item": 16, "min_points": 32}},
 //   "optimizer": {"weight_decay": 0.01, "betas": [0.9, 0.999], "eps": 1e-8, "grad_clip": 1.0},
 //   "ema": {"decay": 0.999},
@@ -75,6 +78,10 @@ struct TrainConfig {
   double condition_probability = 0.9;
   std::array<double, 2> sparse_ratio{0.0005, 0.001};
   bool p2a = false, a2p = false;
+  double p2a_probability = 0.02;  // share of perspective items rendered into a virtual wide camera
+  double a2p_probability = 1.0;   // share of wide-FoV items whose labels are replaced by A2P's
+  std::string a2p_teacher;        // OmniPoint checkpoint that pseudo-labels the A2P views
+  int64_t a2p_teacher_tokens = 0; // the teacher's token budget; 0: num_tokens' maximum
 
   LossConfig loss;
   double weight_decay = 0.01;

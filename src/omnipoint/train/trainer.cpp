@@ -10,6 +10,7 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "omnipoint/eval/metrics.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/model/state_dict.h"
@@ -37,7 +38,28 @@ model::OmniPointModel build_model(const TrainConfig& config) {
   at::manual_seed(config.seed);  // the initial weights of fresh layers follow the config's seed
   if (config.init_from == "omnipoint") {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
-    return load_omnipoint_model(file.tensors, file.metadata);
+    if (config.model.is_null() || !config.model.contains("conditioning"))
+      return load_omnipoint_model(file.tensors, file.metadata);
+    // Fine-tuning with other condition branches (the state-embedding and smoothing ablations
+    // start from one stage-1 model): what both share loads, a branch the file lacks starts as
+    // constructed (zero fusion), one it has but the config drops is left out.
+    nlohmann::json merged = nlohmann::json::parse(config_from_metadata(file.metadata).to_json_text());
+    merged["conditioning"] = config.model.at("conditioning");
+    OmniPointModel network(OmniPointConfig::from_json(merged));
+    const LoadReport report = load_state_dict(*network, file.tensors, LoadMode::kPartial);
+    const auto conditioning = [](const std::string& name) {
+      for (const char* branch : {"intrinsics_encoder.", "intrinsics_state.", "sparse_depth_encoder.", "depth_state."})
+        if (name.rfind(branch, 0) == 0) return true;
+      return false;
+    };
+    for (const std::string& name : report.missing)
+      if (!conditioning(name))
+        throw std::invalid_argument("init.path \"" + config.init_path + "\": lacks \"" + name +
+                                    "\", which is not a conditioning tensor");
+    if (!report.mismatched.empty())
+      throw std::invalid_argument("init.path \"" + config.init_path + "\": \"" + report.mismatched.front() +
+                                  "\" has another shape than the config's");
+    return network;
   }
   if (config.init_from == "moge2") {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
@@ -211,7 +233,7 @@ std::map<std::string, double> Trainer::evaluate() {
   at::NoGradGuard no_grad;
   const int index = stage_index(std::max<int64_t>(step_ - 1, 0));
   const bool conditions = config_.stages[index].stage >= 2;
-  std::map<std::string, double> sums;
+  std::map<std::string, double> sums, counts;
   for (int64_t b = 0; b < config_.eval_batches; ++b) {
     const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream);
     const model::OmniPointOutput output = forward(batch, conditions);
@@ -219,8 +241,34 @@ std::map<std::string, double> Trainer::evaluate() {
     const Losses losses = compute_losses(output, batch.targets, config_.loss, generator);
     sums["loss"] += losses.total.item<double>();
     for (const auto& [name, term] : losses.terms) sums[name] += term.mean().item<double>();
+    // The benchmark's scores (eval/metrics.h) on the same items: scale-invariant points and
+    // metric points (metric items only), Rel and δ1 averaged over the items that have them.
+    for (int64_t k = 0; k < batch.image.size(0); ++k) {
+      const at::Tensor mask = batch.targets.mask[k];
+      if (!mask.any().item<bool>()) continue;
+      eval::GroundTruth truth;
+      truth.points = batch.targets.distance[k].unsqueeze(-1) * batch.targets.rays[k];
+      truth.depth = batch.targets.distance[k];
+      truth.mask = mask;
+      truth.is_metric = batch.targets.metric[k].item<bool>();
+      eval::Prediction prediction;
+      prediction.points = output.points[k].to(at::kCPU, at::kFloat);
+      prediction.depth = prediction.points.norm(2, -1);
+      prediction.is_metric = true;
+      const eval::Metrics metrics = eval::compute_metrics(prediction, truth);
+      for (const auto& [entry, key] : {std::pair{"points_scale_invariant", "points"}, {"points_metric", "metric"}}) {
+        const auto found = metrics.entries.find(entry);
+        if (found == metrics.entries.end() || !std::isfinite(found->second.rel)) continue;
+        sums[std::string(key) + "_rel"] += found->second.rel;
+        sums[std::string(key) + "_delta1"] += found->second.delta1;
+        counts[std::string(key) + "_rel"] += 1, counts[std::string(key) + "_delta1"] += 1;
+      }
+    }
   }
-  for (auto& [name, sum] : sums) sum /= static_cast<double>(config_.eval_batches);
+  for (auto& [name, sum] : sums) {
+    const auto counted = counts.find(name);
+    sum /= counted != counts.end() ? counted->second : static_cast<double>(config_.eval_batches);
+  }
   return distributed_.all_reduce_mean(sums);
 }
 

@@ -75,7 +75,9 @@ class Trainer {
   // in a row.
   StepRecord train_step();
 
-  // Mean losses over config.eval_batches fixed batches (a separate data stream), no update.
+  // Mean losses over config.eval_batches fixed batches (a separate data stream), no update,
+  // plus the benchmark's scores on them: points_rel/points_delta1 (scale-invariant points) and
+  // metric_rel/metric_delta1 (metric points, metric items only), as fractions.
   std::map<std::string, double> evaluate();
 
   TrainState state() const;
