@@ -22,7 +22,7 @@ score() {  # NAME
   if [[ ! -f runs/ablations/$1/eval/summary.json ]]; then
     echo "== eval $1"
     "$omnipoint" eval --model "runs/ablations/$1/model_ema.safetensors" --data "$data" --intrinsics \
-      --sparse-depth 100 --num-tokens 16 --label "$1" --out "runs/ablations/$1/eval" > /dev/null
+      --sparse-depth 100 --num-tokens 16 --label "$1" --out "runs/ablations/$1/eval" > /dev/null 2> "runs/ablations/$1/eval.log"
   fi
 }
 

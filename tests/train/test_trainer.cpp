@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -249,8 +250,10 @@ TEST(BuildModel, OmniPointInitCanChangeOnlyTheConditioning) {
   config.erase("model");
   config["init"] = {{"from", "omnipoint"}, {"path", path}};
   config["model"] = {{"conditioning", {{"encoder_dim", 8}, {"splat_radius", 2}, {"state_embeddings", false},
-                                       {"gaussian_smoothing", false}}}};
+                                       {"gaussian_smoothing", false}}},
+                     {"num_tokens_range", {3, 4}}};
   const model::OmniPointModel changed = build_model(TrainConfig::from_json(config));
+  EXPECT_EQ(changed->config().num_tokens_range, (std::array<int64_t, 2>{3, 4}));
   EXPECT_FALSE(changed->config().conditioning.state_embeddings);
   EXPECT_FALSE(changed->config().conditioning.gaussian_smoothing);
   const auto before = model::state_dict(*source), after = model::state_dict(*changed);
@@ -259,7 +262,7 @@ TEST(BuildModel, OmniPointInitCanChangeOnlyTheConditioning) {
     ASSERT_TRUE(before.count(name)) << name;
     EXPECT_TRUE(at::equal(tensor, before.at(name))) << name;
   }
-  // Anything but the conditioning is the file's, not the config's.
+  // Anything but the conditioning and the token budget is the file's, not the config's.
   config["model"]["encoder"] = tiny_model_json()["encoder"];
   EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
   fs::remove_all(dir);

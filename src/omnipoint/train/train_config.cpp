@@ -80,7 +80,8 @@ TrainConfig TrainConfig::from_json(const json& root) {
   require((c.init_from != "scratch" && c.init_from != "dinov2") || !c.model.is_null(), "model",
           "required (the network configuration) to initialise from " + c.init_from);
   if (c.init_from == "omnipoint" && !c.model.is_null())
-    check_keys(c.model, {"conditioning"}, "model (from an OmniPoint checkpoint only \"conditioning\" may change)");
+    check_keys(c.model, {"conditioning", "num_tokens_range"},
+               "model (from an OmniPoint checkpoint only \"conditioning\" and \"num_tokens_range\" may change)");
 
   const json& data = object_at(root, "data", "config");
   check_keys(data, {"batch_size", "image_size", "num_tokens", "datasets"}, "data");

@@ -4,7 +4,8 @@
 //   "output_dir": "runs/small",            checkpoints, log.jsonl
 //   "seed": 0, "threads": 1,                threads 1 + a seed = deterministic, resumable bit-exactly
 //   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2"); with init
-//                                           "omnipoint" only {"conditioning": {...}} (ablations)
+//                                           "omnipoint" only "conditioning" (ablations) and
+//                                           "num_tokens_range" (the default token budget)
 //   "init": {"from": "scratch" | "dinov2" | "moge2" | "omnipoint", "path": FILE,
 //            "output": "ray_distance" | "xyz"  (moge2 only)},
 //   "data": {"batch_size": 8, "image_size": [W, H], "num_tokens": [min, max],

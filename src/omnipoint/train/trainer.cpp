@@ -38,13 +38,12 @@ model::OmniPointModel build_model(const TrainConfig& config) {
   at::manual_seed(config.seed);  // the initial weights of fresh layers follow the config's seed
   if (config.init_from == "omnipoint") {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
-    if (config.model.is_null() || !config.model.contains("conditioning"))
-      return load_omnipoint_model(file.tensors, file.metadata);
+    if (config.model.is_null()) return load_omnipoint_model(file.tensors, file.metadata);
     // Fine-tuning with other condition branches (the state-embedding and smoothing ablations
-    // start from one stage-1 model): what both share loads, a branch the file lacks starts as
-    // constructed (zero fusion), one it has but the config drops is left out.
+    // start from one stage-1 model) or another default token budget: what both share loads, a
+    // branch the file lacks starts as constructed (zero fusion), one the config drops is left out.
     nlohmann::json merged = nlohmann::json::parse(config_from_metadata(file.metadata).to_json_text());
-    merged["conditioning"] = config.model.at("conditioning");
+    for (const auto& [key, value] : config.model.items()) merged[key] = value;
     OmniPointModel network(OmniPointConfig::from_json(merged));
     const LoadReport report = load_state_dict(*network, file.tensors, LoadMode::kPartial);
     const auto conditioning = [](const std::string& name) {
