@@ -16,6 +16,8 @@
 #include "eval/eval_test_data.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
+#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/model/omnipoint_config.h"
 
 namespace omnipoint::eval {
 namespace {
@@ -161,6 +163,22 @@ TEST(RunnerScoring, PointMapsGiveRaysAndDistances) {
   EXPECT_TRUE(at::allclose(prediction.rays[0][1], at::tensor({0.6f, 0.8f, 0.0f})));
   EXPECT_TRUE(at::equal(prediction.rays[0][3], at::zeros({3})));
   EXPECT_FALSE(at::isnan(prediction.rays).any().item<bool>());
+}
+
+// +K: the known camera's rays carry the model's distances (as `omnipoint predict --camera`).
+TEST(RunnerScoring, OmniPointModelUsesAKnownCameraAsItIs) {
+  const auto config = model::OmniPointConfig::from_json_text(
+      io::read_file(std::string(OMNIPOINT_SOURCE_DIR) + "/examples/models/tiny_omnipoint.json"));
+  at::manual_seed(0);
+  Predictor predictor = omnipoint_predictor(model::OmniPointModel(config), "tiny", 12);
+  const camera::Camera fisheye = camera::parse_camera("OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0");
+  const camera::Rays truth = fisheye.ray_map(at::kFloat);
+  const EvalSample item{"data", "0000", Split::kLargeFov,
+                        data::Sample{fisheye, at::rand({28, 28, 3}), at::ones({28, 28}), truth.valid, true}};
+  Conditions known;
+  known.rays = truth.rays;
+  EXPECT_TRUE(at::allclose(predictor.predict(item, known).rays, truth.rays));
+  EXPECT_FALSE(at::allclose(predictor.predict(item, Conditions{}).rays, truth.rays, 1e-2, 1e-2));
 }
 
 TEST_F(RunnerTest, SummaryAndTableHaveTheRightRowsAndColumns) {

@@ -146,6 +146,23 @@ TEST(Predictor, SparseDepthAlignsTheMetricScale) {
   EXPECT_TRUE(at::allclose(aligned.points, aligned.rays * aligned.distance.unsqueeze(-1), 1e-5, 1e-6));
 }
 
+TEST(Predictor, AGivenCameraIsUsedAsItIs) {
+  const Model model = Model::load(tiny_model_path());
+  const at::Tensor image = at::rand({32, 32, 3}, at::make_generator<at::CPUGeneratorImpl>(4));
+  PredictOptions options;
+  options.num_tokens = 12;
+  options.fit_model = "";
+  const Prediction free = model.predict(image, options);
+  // A fisheye whose image circle leaves the corners outside its domain.
+  options.camera = camera::parse_camera("OPENCV_FISHEYE 32 32 10 10 16 16 0 0 0 0");
+  const camera::Rays truth = options.camera->ray_map(at::kFloat);
+  const Prediction known = model.predict(image, options);
+  EXPECT_TRUE(at::allclose(known.rays, truth.rays, 1e-6, 1e-6));
+  EXPECT_FALSE(at::allclose(free.rays, truth.rays, 1e-2, 1e-2));  // the random network's own rays differ
+  EXPECT_FALSE((known.mask & ~truth.valid).any().item<bool>());
+  EXPECT_TRUE(at::allclose(known.points, known.rays * known.distance.unsqueeze(-1), 1e-5, 1e-6));
+}
+
 TEST(Predictor, LoadErrorsNameTheFile) {
   EXPECT_THROW(Model::load("/nonexistent/model.safetensors"), std::runtime_error);
   const fs::path dir = fresh_dir("load");

@@ -55,7 +55,10 @@ Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& na
     if (inputs.sparse_depth.defined() && item.sample.metric)
       output = model::align_to_metric_sparse_depth(output, inputs.sparse_depth);
     GeometryPrediction prediction;
-    prediction.rays = output.rays[0].to(at::kCPU, at::kFloat);
+    // A known camera is used as it is (as `omnipoint predict --camera` does): its rays carry
+    // the predicted distances; the ray head's output only stands in for an unknown camera.
+    prediction.rays = conditions.rays.defined() ? conditions.rays.to(at::kCPU, at::kFloat)
+                                                : output.rays[0].to(at::kCPU, at::kFloat);
     prediction.distance = output.distance[0].to(at::kCPU, at::kFloat);
     prediction.metric_scale = output.metric_scale[0].item<double>();
     prediction.is_metric = true;

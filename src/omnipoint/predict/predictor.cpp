@@ -261,8 +261,12 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images, const Pre
   const at::Tensor samples_cpu = samples.to(at::kCPU);
   for (int64_t b = 0; b < batch; ++b) {
     const double s = scale_cpu[b].item<double>();
-    Prediction p = prediction_from_geometry(net.rays[b].to(at::kCPU, at::kFloat),
-                                            (net.distance[b] * s).to(at::kCPU, at::kFloat), net.mask[b].to(at::kCPU), s);
+    // A given camera is used as it is: its rays carry the predicted distances (pixels outside
+    // its domain are invalid); the predicted rays stand in only for an unknown camera.
+    const at::Tensor rays = camera_rays.defined() ? camera_rays[b] : net.rays[b];
+    const at::Tensor mask = camera_rays.defined() ? net.mask[b] & (camera_rays[b].abs().sum(-1) > 0) : net.mask[b];
+    Prediction p = prediction_from_geometry(rays.to(at::kCPU, at::kFloat), (net.distance[b] * s).to(at::kCPU, at::kFloat),
+                                            mask.to(at::kCPU), s);
     p.alignment_factor = factor_cpu[b].item<double>();
     p.sparse_samples = samples_cpu[b].item<int64_t>();
     p.notes = notes;

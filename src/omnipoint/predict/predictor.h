@@ -46,7 +46,8 @@ struct SparseDepthInput {
 
 struct PredictOptions {
   // The image's camera (any model); its size must equal the image's or have its aspect ratio
-  // (it is then resized). Without it the model predicts the rays.
+  // (it is then resized). It conditions the network, and the output points lie on its rays
+  // (invalid outside its domain). Without it the model predicts the rays.
   std::optional<camera::Camera> camera;
   SparseDepthInput sparse_depth;
   int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (MoGe-2's top level)
