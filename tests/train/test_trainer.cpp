@@ -359,9 +359,15 @@ int run_cli(const std::string& arguments) {
 
 TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
   const std::string root = temp_dir("resume");
+  // Stage 2 with P2A and A2P: the teacher's pseudo-labels must resume exactly too.
+  const model::OmniPointModel teacher = tiny_model(TrainConfig::from_json(tiny_config("x")));
+  io::write_safetensors(root + "/teacher.safetensors", model::state_dict(*teacher),
+                        model::omnipoint_metadata(teacher->config()));
   const auto write_config = [&](const std::string& name) {
     json config = tiny_config(root + "/" + name);
     config["checkpoint_every"] = 2;
+    config["augment"] = {{"p2a", true}, {"p2a_probability", 0.5}, {"a2p", true},
+                         {"a2p_teacher", root + "/teacher.safetensors"}};
     const std::string path = root + "/" + name + ".json";
     std::ofstream(path) << config.dump(2);
     return path;
@@ -390,6 +396,42 @@ TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
   EXPECT_NO_THROW(read_checkpoint(root + "/interrupted/checkpoints/step_00000005"));
   EXPECT_THROW(read_checkpoint(root + "/nothing"), std::runtime_error);
   EXPECT_NE(run_cli("--config " + interrupted + " --resume " + root + "/nothing"), 0);
+  fs::remove_all(root);
+}
+
+// A real SIGKILL at an arbitrary moment (mid-step, mid-log line or mid-checkpoint): the resumed
+// run ends with the uninterrupted run's weights and loss curve.
+TEST(TrainCli, KilledRunResumesToTheSameWeights) {
+  const std::string root = temp_dir("kill");
+  const auto write_config = [&](const std::string& name) {
+    json config = tiny_config(root + "/" + name);
+    config["stages"][0]["steps"] = 30;
+    config["stages"][1]["steps"] = 30;
+    config["checkpoint_every"] = 4;
+    std::ofstream(root + "/" + name + ".json") << config.dump(2);
+    return root + "/" + name + ".json";
+  };
+  const std::string straight = write_config("straight"), killed = write_config("killed");
+  ASSERT_EQ(run_cli("--config " + straight), 0);
+  // Kill after a growing delay until a checkpoint exists and the run had not finished.
+  bool interrupted = false;
+  for (const char* delay : {"1", "2", "4", "8"}) {
+    fs::remove_all(root + "/killed");
+    std::system(("timeout -s KILL " + std::string(delay) + " " + OMNIPOINT_CLI + " train --config " + killed +
+                 " 2>/dev/null")
+                    .c_str());
+    interrupted = fs::exists(root + "/killed/checkpoints/latest") && !fs::exists(root + "/killed/model.safetensors");
+    if (interrupted) break;
+  }
+  ASSERT_TRUE(interrupted) << "no delay killed the run between its first checkpoint and its end";
+  ASSERT_EQ(run_cli("--config " + killed + " --resume " + root + "/killed"), 0);
+  EXPECT_EQ(losses_by_step(root + "/killed/log.jsonl"), losses_by_step(root + "/straight/log.jsonl"));
+  for (const std::string file : {"model.safetensors", "model_ema.safetensors"}) {
+    const auto a = io::read_safetensors(root + "/straight/" + file, std::nullopt).tensors;
+    const auto b = io::read_safetensors(root + "/killed/" + file, std::nullopt).tensors;
+    ASSERT_EQ(a.size(), b.size());
+    for (const auto& [name, t] : a) EXPECT_TRUE(at::equal(t, b.at(name))) << file << " " << name;
+  }
   fs::remove_all(root);
 }
 
