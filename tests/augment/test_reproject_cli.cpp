@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -14,15 +13,11 @@
 #include "omnipoint/data/sample.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/npy.h"
+#include "support/cli_run.h"
 
 namespace omnipoint {
 namespace {
 namespace fs = std::filesystem;
-
-struct Result {
-  int status;
-  std::string err;
-};
 
 class ReprojectCli : public ::testing::Test {
  protected:
@@ -37,12 +32,7 @@ class ReprojectCli : public ::testing::Test {
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
-  static Result run(const std::string& arguments) {
-    const auto err = (dir_ / "stderr.txt").string();
-    const std::string command = std::string(OMNIPOINT_CLI) + " " + arguments + " >/dev/null 2>" + err;
-    const int status = std::system(command.c_str());
-    return {WEXITSTATUS(status), io::read_file(err)};
-  }
+  static test::CliRun run(const std::string& arguments) { return test::run_omnipoint(arguments, dir_ / "cli"); }
   static std::string path(const std::string& name) { return (dir_ / name).string(); }
 
   void expect_failure(const std::string& arguments, const std::string& mention) {

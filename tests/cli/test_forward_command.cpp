@@ -3,13 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "omnipoint/io/npy.h"
+#include "support/cli_run.h"
 
 namespace {
 
@@ -18,11 +16,6 @@ using omnipoint::io::read_npy;
 
 const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
 const std::string kModel = kFixture + "/model.safetensors";
-
-struct CliResult {
-  int status;
-  std::string stderr_text;
-};
 
 class ForwardCommand : public ::testing::Test {
  protected:
@@ -34,23 +27,17 @@ class ForwardCommand : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  CliResult run(const std::string& arguments) const {
-    const std::string err = (dir_ / "stderr.txt").string();
-    const std::string command = std::string(OMNIPOINT_CLI) + " forward " + arguments + " 2> " + err;
-    const int status = std::system(command.c_str());
-    std::ifstream in(err);
-    std::stringstream text;
-    text << in.rdbuf();
-    return {status, text.str()};
+  omnipoint::test::CliRun run(const std::string& arguments) const {
+    return omnipoint::test::run_omnipoint("forward " + arguments, dir_ / "cli");
   }
 
   // A failed run: non-zero exit, exactly one line naming `mention`, no output folder content.
   void expect_refusal(const std::string& arguments, const std::string& mention) const {
-    const CliResult result = run(arguments + " --out " + (dir_ / "out").string());
+    const omnipoint::test::CliRun result = run(arguments + " --out " + (dir_ / "out").string());
     EXPECT_NE(result.status, 0) << arguments;
-    EXPECT_EQ(std::count(result.stderr_text.begin(), result.stderr_text.end(), '\n'), 1) << result.stderr_text;
-    EXPECT_EQ(result.stderr_text.rfind("omnipoint: error: ", 0), 0u) << result.stderr_text;
-    EXPECT_NE(result.stderr_text.find(mention), std::string::npos) << result.stderr_text;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+    EXPECT_EQ(result.err.rfind("omnipoint: error: ", 0), 0u) << result.err;
+    EXPECT_NE(result.err.find(mention), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(dir_ / "out" / "points.npy"));
   }
 
@@ -65,10 +52,10 @@ void expect_close(const at::Tensor& actual, const at::Tensor& reference, const s
 
 TEST_F(ForwardCommand, WritesTheFixtureOutputs) {
   const fs::path out = dir_ / "out";
-  const CliResult result = run("--model " + kModel + " --input " + kFixture + "/input.npy --num-tokens 300 --out " +
+  const omnipoint::test::CliRun result = run("--model " + kModel + " --input " + kFixture + "/input.npy --num-tokens 300 --out " +
                          out.string());
-  ASSERT_EQ(result.status, 0) << result.stderr_text;
-  EXPECT_EQ(result.stderr_text, "");
+  ASSERT_EQ(result.status, 0) << result.err;
+  EXPECT_EQ(result.err, "");
   const at::Tensor points = read_npy((out / "points.npy").string());
   expect_close(points, read_npy(kFixture + "/expected_points.npy"), "points");
   expect_close(read_npy((out / "mask.npy").string()), read_npy(kFixture + "/expected_mask.npy"), "mask");
@@ -106,12 +93,14 @@ TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
 
 TEST_F(ForwardCommand, RunsAnOmniPointCheckpoint) {
   const fs::path model = dir_ / "tiny.safetensors";
-  const std::string init = std::string(OMNIPOINT_CLI) + " init-model --config " + OMNIPOINT_SOURCE_DIR +
-                           "/examples/models/tiny_omnipoint.json --out " + model.string() + " --seed 3";
-  ASSERT_EQ(std::system(init.c_str()), 0);
+  ASSERT_EQ(omnipoint::test::run_omnipoint("init-model --config " + std::string(OMNIPOINT_SOURCE_DIR) +
+                                    "/examples/models/tiny_omnipoint.json --out " + model.string() + " --seed 3",
+                                dir_ / "cli")
+                .status,
+            0);
   const fs::path out = dir_ / "out";
-  const CliResult result = run("--model " + model.string() + " --input " + kFixture + "/input.npy --out " + out.string());
-  ASSERT_EQ(result.status, 0) << result.stderr_text;
+  const omnipoint::test::CliRun result = run("--model " + model.string() + " --input " + kFixture + "/input.npy --out " + out.string());
+  ASSERT_EQ(result.status, 0) << result.err;
   EXPECT_FALSE(fs::exists(out / "normal.npy")) << "the OmniPoint model has no normal head";
 
   const at::Tensor image = read_npy(kFixture + "/input.npy");
