@@ -10,12 +10,12 @@
 #include <opencv2/ccalib/omnidir.hpp>
 
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "omnipoint/io/npy.h"
+#include "support/cli_run.h"
 
 namespace omnipoint::camera {
 namespace {
@@ -34,9 +34,8 @@ class FisheyeCli : public ::testing::Test {
   // `omnipoint camera rays` for the spec, as a (H, W, 3) float64 tensor.
   at::Tensor rays(const std::string& spec) const {
     const auto out = (dir_ / "rays.npy").string();
-    const std::string command = std::string(OMNIPOINT_CLI) + " camera rays --camera '" + spec +
-                                "' --out " + out + " >/dev/null";
-    EXPECT_EQ(std::system(command.c_str()), 0) << command;
+    const test::CliRun run = test::run_omnipoint("camera rays --camera '" + spec + "' --out " + out, dir_ / "cli");
+    EXPECT_EQ(run.status, 0) << spec << ": " << run.err;
     const auto rays = io::read_npy(out);
     EXPECT_EQ(rays.scalar_type(), at::kFloat);
     return rays.to(at::kDouble);

@@ -13,6 +13,7 @@
 #include "omnipoint/data/transform.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/npy.h"
+#include "support/cli_run.h"
 
 namespace omnipoint::data {
 namespace {
@@ -158,17 +159,17 @@ TEST(SampleTransforms, CropAndResizeKeepThePointsOfTheScene) {
 
 TEST(SynthCli, WritesOneFolderPerSeedAndRejectsBadInput) {
   const auto dir = fresh_dir("cli");
-  const std::string cli = OMNIPOINT_CLI;
-  const std::string ok = cli + " synth --camera 'PINHOLE 32 24 30 30 16 12' --scene outdoor --seed 7 --count 2 --out " +
-                         dir.string() + " > /dev/null";
-  ASSERT_EQ(std::system(ok.c_str()), 0);
+  const auto run = [&](const std::string& args) { return test::run_omnipoint(args, dir / "cli"); };
+  const test::CliRun ok = run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene outdoor --seed 7 --count 2 --out " +
+                              dir.string());
+  ASSERT_EQ(ok.status, 0) << ok.err;
   EXPECT_TRUE(fs::exists(dir / "000007" / "image.png"));
   EXPECT_TRUE(fs::exists(dir / "000008" / "meta.json"));
   EXPECT_EQ(read_sample((dir / "000008").string()).camera.width(), 32);
-  const std::string bad = cli + " synth --camera 'PINHOLE 32 24 30 30 16 12' --scene moon --out " + dir.string() + " 2> /dev/null";
-  EXPECT_NE(std::system(bad.c_str()), 0);
-  const std::string bad_cam = cli + " synth --camera 'PINHOLE 32' --out " + dir.string() + " 2> /dev/null";
-  EXPECT_NE(std::system(bad_cam.c_str()), 0);
+  const test::CliRun bad_scene = run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene moon --out " + dir.string());
+  EXPECT_NE(bad_scene.status, 0);
+  EXPECT_NE(bad_scene.err.find("moon"), std::string::npos) << bad_scene.err;
+  EXPECT_NE(run("synth --camera 'PINHOLE 32' --out " + dir.string()).status, 0);
 }
 
 }  // namespace
