@@ -37,6 +37,7 @@ struct TrainOptions {
   std::string resume;
   int64_t stop_after = 0;  // 0: run to the end
   int64_t nproc = 1;       // > 1: launch that many local ranks
+  bool curves_only = false;
 };
 
 std::string clock_text(double seconds) {
@@ -86,6 +87,14 @@ void run_train(const TrainOptions& options) {
     throw std::invalid_argument("config " + options.config_path + ": not valid JSON (" + e.what() + ")");
   }
   const train::TrainConfig config = train::TrainConfig::from_json(config_json);
+  if (options.curves_only) {
+    const fs::path out_dir(config.output_dir);
+    if (!fs::exists(out_dir / "log.jsonl"))
+      throw std::runtime_error("--curves-only: " + (out_dir / "log.jsonl").string() + " does not exist");
+    if (!io::image_io_available()) throw std::runtime_error("--curves-only: this build has no image file I/O (OpenCV)");
+    write_curves((out_dir / "log.jsonl").string(), (out_dir / "curves.png").string());
+    return;
+  }
 
   train::TrainState resumed;
   const bool resume = !options.resume.empty();
@@ -168,13 +177,16 @@ void add_train_command(CLI::App& app) {
   command->add_option("--stop-after", options->stop_after,
                       "Stop after this many steps in total (with a checkpoint), as an interruption would")
       ->check(CLI::PositiveNumber);
+  command->add_flag("--curves-only", options->curves_only,
+                    "Only redraw the run's curves.png from its log.jsonl (output_dir of the config)");
   command->add_option("--nproc", options->nproc,
                       "Data-parallel ranks to start on this machine (Gloo; the config's batch_size is per rank)")
       ->check(CLI::PositiveNumber);
   command->callback([options] {
     // --nproc N (not already inside a launched job): N copies of this command as the ranks of
     // one data-parallel job on this machine, as torchrun would start them.
-    if (options->nproc == 1 || std::getenv("WORLD_SIZE") != nullptr) return run_train(*options);
+    if (options->nproc == 1 || options->curves_only || std::getenv("WORLD_SIZE") != nullptr)
+      return run_train(*options);
     std::vector<std::string> arguments{"train", "--config", options->config_path};
     if (!options->resume.empty()) arguments.insert(arguments.end(), {"--resume", options->resume});
     if (options->stop_after > 0)

@@ -19,7 +19,7 @@ std::vector<json> decaying_run(int steps) {
   for (int s = 1; s <= steps; ++s)
     records.push_back({{"step", s}, {"loss", std::exp(-0.05 * s)}, {"terms", {{"point", 0.5 / s}, {"ray", 0.1}}},
                        {"skipped", false}});
-  records.push_back({{"step", steps}, {"eval", {{"loss", 0.2}, {"points_delta1", 0.7}}}});
+  records.push_back({{"step", steps}, {"eval", {{"loss", 0.2}, {"points_delta1", 0.7}, {"point", 0.1}}}});
   return records;
 }
 
@@ -34,7 +34,8 @@ TEST(TrainingCurves, OnePanelPerSeriesThreeToARow) {
   const at::Tensor image = render_training_curves(decaying_run(100));
   ASSERT_EQ(image.dim(), 3);
   EXPECT_EQ(image.scalar_type(), at::kByte);
-  // loss, point, ray, eval loss, eval points_delta1: five panels -> two rows of three.
+  // loss, point, ray, eval loss, eval points_delta1 (not the eval's loss term "point"): five
+  // panels -> two rows of three.
   EXPECT_EQ(image.size(1), 3 * 400);
   EXPECT_EQ(image.size(0), 2 * 230);
   EXPECT_EQ(image.size(2), 3);

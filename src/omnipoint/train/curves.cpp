@@ -115,8 +115,17 @@ void add_point(std::map<std::string, Series>& series, const std::string& name, d
   s.points.emplace_back(step, v);
 }
 
+// Of an evaluation, the total loss and the benchmark scores (`*_rel`, `*_delta1`); its loss
+// terms would repeat the training panels.
+bool is_eval_score(const std::string& name) {
+  const auto ends_with = [&](const std::string& suffix) {
+    return name.size() >= suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  return name == "loss" || ends_with("_rel") || ends_with("_delta1");
+}
+
 constexpr int64_t kPanelWidth = 400, kPanelHeight = 230, kColumns = 3;
-constexpr int64_t kLeft = 12, kTop = 34, kRight = 12, kBottom = 28;  // plot area inside a panel
+constexpr int64_t kLeft = 12, kTop = 42, kRight = 12, kBottom = 28;  // plot area inside a panel
 
 void draw_panel(Canvas& canvas, int64_t x0, int64_t y0, const std::string& name, const Series& series,
                 double max_step) {
@@ -133,13 +142,12 @@ void draw_panel(Canvas& canvas, int64_t x0, int64_t y0, const std::string& name,
 
   canvas.rect(static_cast<int64_t>(px0), static_cast<int64_t>(py0), static_cast<int64_t>(px1),
               static_cast<int64_t>(py1), kFrame);
-  canvas.text(x0 + kLeft, y0 + 6, name + (logarithmic ? " (log)" : ""), kInk);
+  canvas.text(x0 + kLeft, y0 + 4, name + (logarithmic ? " (log)" : ""), kInk);
+  canvas.text(x0 + kLeft, y0 + 22, number(low) + " - " + number(high), kFrame);
   canvas.text(x0 + kLeft, static_cast<int64_t>(py1) + 8, "0", kInk);
   const std::string steps = number(max_step);
   canvas.text(static_cast<int64_t>(px1) - 12 * static_cast<int64_t>(steps.size()), static_cast<int64_t>(py1) + 8,
               steps, kInk);
-  const std::string range = number(low) + " - " + number(high);
-  canvas.text(static_cast<int64_t>(px1) - 12 * static_cast<int64_t>(range.size()), y0 + 6, range, kInk);
 
   const auto& points = series.points;
   if (series.evaluation) {
@@ -183,7 +191,8 @@ at::Tensor render_training_curves(const std::vector<json>& records) {
     const double step = record.at("step").get<double>();
     max_step = std::max(max_step, step);
     if (record.contains("eval") && record.at("eval").is_object()) {
-      for (const auto& [name, value] : record.at("eval").items()) add_point(eval_series, "eval " + name, step, value, true);
+      for (const auto& [name, value] : record.at("eval").items())
+        if (is_eval_score(name)) add_point(eval_series, "eval " + name, step, value, true);
       continue;
     }
     if (record.value("skipped", false)) continue;

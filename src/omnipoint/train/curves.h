@@ -3,9 +3,9 @@
 // OUTPUT_DIR/curves.png from log.jsonl at every checkpoint and at the end).
 //
 // One panel per series, three to a row: "loss" (the weighted total), each loss term, then
-// "eval <entry>" for every entry of the periodic evaluations. x is the step; y is log-scaled
-// when every value of the series is positive, else linear; each panel is labelled with its
-// name and its y range. Per-step values are drawn light, their running mean (a window of
+// "eval <entry>" for the periodic evaluations' total loss and benchmark scores (`*_rel`,
+// `*_delta1`). x is the step; y is log-scaled when every value of the series is positive, else
+// linear; each panel is labelled with its name and its y range. Per-step values are drawn light, their running mean (a window of
 // 1/50 of the steps) dark; evaluations as dots. Skipped (non-finite) steps are left out.
 #include <ATen/core/Tensor.h>
 #include <nlohmann/json.hpp>
