@@ -16,15 +16,12 @@ done
 echo "ray maps and pictures written to out/demo/"
 
 # Predict: a point cloud from each bundled example image (pinhole without and with its camera
-# and sparse depth, fisheye, panorama). No trained model is bundled yet, so the demo makes a
-# tiny random-weight one: the pipeline and every output file are real, the geometry is not.
-model=${OMNIPOINT_MODEL:-out/demo/tiny_random.safetensors}
-if [ ! -f "$model" ]; then
-  build/src/cli/omnipoint init-model --config examples/models/tiny_omnipoint.json --out "$model"
-fi
-omnipoint="build/src/cli/omnipoint predict --model $model --out out/demo/predict"
+# and sparse depth, fisheye, panorama) with the bundled model (models/omnipoint_default.safetensors,
+# a small model trained on synthetic scenes: docs/TRAINING.md, "The bundled model"). Set
+# OMNIPOINT_MODEL to use another checkpoint.
+omnipoint="build/src/cli/omnipoint predict --out out/demo/predict"
 $omnipoint examples/images/pinhole.png
-build/src/cli/omnipoint predict --model "$model" --out out/demo/predict_with_camera examples/images/pinhole.png \
+build/src/cli/omnipoint predict --out out/demo/predict_with_camera examples/images/pinhole.png \
   --camera examples/images/pinhole.txt --sparse-depth examples/images/pinhole_sparse_depth.npy
 $omnipoint examples/images/fisheye.png --camera examples/images/fisheye.txt
 $omnipoint examples/images/panorama.png --camera examples/images/panorama.json

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -28,7 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kBundledModel = "models/omnipoint_default.safetensors";
 
 struct PredictCommandOptions {
   std::vector<std::string> inputs;
@@ -83,11 +83,20 @@ std::optional<std::string> sparse_depth_for(const std::string& option, const fs:
   return std::nullopt;
 }
 
+// --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool
+// (<prefix>/bin/omnipoint -> <prefix>/share/omnipoint/), else in the source tree it was built from.
 std::string model_path_or_bundled(const std::string& given) {
   if (!given.empty()) return given;
-  if (fs::exists(kBundledModel)) return kBundledModel;
-  throw std::invalid_argument(std::string("no bundled model exists yet (") + kBundledModel +
-                              " is missing): pass a checkpoint with --model FILE");
+  if (const char* environment = std::getenv("OMNIPOINT_MODEL"); environment != nullptr && *environment != '\0')
+    return environment;
+  std::error_code error;
+  const fs::path executable = fs::read_symlink("/proc/self/exe", error);
+  const fs::path installed = executable.parent_path().parent_path() / OMNIPOINT_INSTALLED_MODEL;
+  if (!error && fs::exists(installed)) return installed.string();
+  if (fs::exists(OMNIPOINT_SOURCE_MODEL)) return OMNIPOINT_SOURCE_MODEL;
+  throw std::invalid_argument(std::string("no model given and the bundled one is missing (looked for ") +
+                              installed.string() + " and " + OMNIPOINT_SOURCE_MODEL +
+                              "): pass a checkpoint with --model FILE");
 }
 
 void run_predict(const PredictCommandOptions& options) {
@@ -157,8 +166,8 @@ void add_predict_command(CLI::App& app) {
   command->add_option("--lidar-to-camera", options->lidar_to_camera,
                       "Camera-from-LiDAR transform of a point cloud: 4x4 (or 3x4) numbers in a text file, or .npy");
   command->add_option("--model", options->model_path,
-                      std::string("Model checkpoint (.safetensors, OmniPoint or MoGe-2; default: ") + kBundledModel +
-                          ")");
+                      "Model checkpoint (.safetensors, OmniPoint or MoGe-2; default: $OMNIPOINT_MODEL, else the "
+                      "bundled models/omnipoint_default.safetensors)");
   command->add_option("--out", options->out_dir, "Output folder (default: predictions)");
   command->add_option("--num-tokens", options->num_tokens, "ViT token budget (default: the model's)")
       ->check(CLI::PositiveNumber);

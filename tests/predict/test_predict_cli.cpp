@@ -24,10 +24,11 @@ struct CliRun {
   std::string err;
 };
 
-// Runs the CLI in `dir` (so no bundled model is found there) with stderr captured.
-CliRun run_cli(const fs::path& dir, const std::string& args) {
+// Runs the CLI in `dir` with stderr captured; `environment`: "NAME=value " assignments.
+CliRun run_cli(const fs::path& dir, const std::string& args, const std::string& environment = "") {
   const fs::path err = dir / "stderr.txt";
-  const std::string command = "cd '" + dir.string() + "' && '" + std::string(OMNIPOINT_CLI) + "' " + args +
+  const std::string command = "cd '" + dir.string() + "' && " + environment + "'" + std::string(OMNIPOINT_CLI) +
+                              "' " + args +
                               " > /dev/null 2> '" + err.string() + "'";
   const int status = std::system(command.c_str());
   std::ifstream in(err);
@@ -70,11 +71,19 @@ TEST_F(PredictCli, WritesEveryOutput) {
 }
 
 TEST_F(PredictCli, MissingModelSaysSo) {
-  const CliRun run = run_cli(dir_, "predict good.png");
+  const CliRun run = run_cli(dir_, "predict good.png", "OMNIPOINT_MODEL=no_such_model.safetensors ");
   EXPECT_NE(run.status, 0);
   EXPECT_EQ(error_lines(run.err), 1) << run.err;
-  EXPECT_NE(run.err.find("--model"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("no_such_model.safetensors"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir_ / "predictions"));
+}
+
+// Without --model the bundled model predicts, from any working folder.
+TEST_F(PredictCli, BundledModelIsTheDefault) {
+  const CliRun run = run_cli(dir_, "predict good.png --out bundled", "env -u OMNIPOINT_MODEL ");
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "bundled" / "good" / "points.ply"));
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "bundled" / "good" / "camera.json"));
 }
 
 TEST_F(PredictCli, CorruptImageIsSkipped) {
