@@ -64,11 +64,13 @@ def main():
     print("\n### Point loss (mode none)\n")
     print(table(runs, [("P + GT-ray (decoupled, base)", BASE), ("P (naive, entangled)", ["s2_naive"]),
                        ("D + Ray (disjoint)", ["s2_disjoint"])], geometry_columns()))
-    print("\n### Bidirectional augmentation (360° split, mode none)\n")
+    print("\n### Bidirectional augmentation (360° split; none and +K)\n")
     columns = [("points Rel↓", "360°", "none", "points_scale_invariant", "rel"),
                ("points δ1↑", "360°", "none", "points_scale_invariant", "delta1"),
                ("depth Rel↓", "360°", "none", "depth_scale_invariant", "rel"),
-               ("depth δ1↑", "360°", "none", "depth_scale_invariant", "delta1")]
+               ("depth δ1↑", "360°", "none", "depth_scale_invariant", "delta1"),
+               ("+K depth Rel↓", "360°", "+K", "depth_scale_invariant", "rel"),
+               ("+K depth δ1↑", "360°", "+K", "depth_scale_invariant", "delta1")]
     print(table(runs, [("neither", ["s2_no_p2a_no_a2p"]), ("P2A only", ["s2_p2a_only"]),
                        ("A2P only", ["s2_a2p_only"]), ("P2A + A2P (base)", BASE)], columns))
     print("\n### Sparse-depth conditioning (+D mode)\n")
