@@ -13,29 +13,15 @@
 #include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_config.h"
 #include "omnipoint/model/omnipoint_model.h"
+#include "support/tiny_omnipoint.h"
 
 namespace omnipoint::augment {
 namespace {
 
-// A tiny random OmniPoint network (the layout of tests/model/test_omnipoint_model.cpp).
+// A tiny random OmniPoint network (tests/support/tiny_omnipoint.h).
 model::OmniPointModel tiny_model() {
-  const std::string stack =
-      R"("dim_res_blocks": [16, 8, 8, 8, 4], "num_res_blocks": [0, 1, 1, 1, 0],
-         "resamplers": ["conv_transpose", "conv_transpose", "conv_transpose", "bilinear"],
-         "res_block_in_norm": "none", "res_block_hidden_norm": "none")";
-  const auto head = [&](int channels) {
-    return R"({"dim_in": [16, 8, 8, 8, 4], "dim_out": [null, null, null, null, )" + std::to_string(channels) +
-           "], " + stack + "}";
-  };
-  const std::string json = R"({
-    "encoder": {"backbone": "dinov2_custom", "intermediate_layers": [0, 1], "dim_out": 16,
-                "backbone_config": {"embed_dim": 32, "depth": 2, "num_heads": 2, "img_size": 56}},
-    "neck": {"dim_in": [18, 2, 2, 2, 2], "dim_out": null, )" + stack + R"(},
-    "mask_head": )" + head(1) + R"(, "scale_head": {"dims": [32, 16, 1]}, "output": "ray_distance",
-    "conditioning": {"encoder_dim": 8, "splat_radius": 3}, "ray_head": )" + head(3) +
-                           R"(, "distance_head": )" + head(1) + "}";
   at::manual_seed(7);
-  model::OmniPointModel net(model::OmniPointConfig::from_json_text(json));
+  model::OmniPointModel net(model::OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json()));
   net->eval();
   return net;
 }

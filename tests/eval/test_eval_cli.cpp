@@ -22,6 +22,7 @@
 #include "omnipoint/model/omnipoint_config.h"
 #include "omnipoint/model/omnipoint_model.h"
 #include "omnipoint/model/state_dict.h"
+#include "support/tiny_omnipoint.h"
 
 namespace {
 namespace fs = std::filesystem;
@@ -69,25 +70,6 @@ const char* kTinyBenchmark = R"({
   ]
 })";
 
-// A tiny random-weight OmniPoint model (ViT of width 32, 2 blocks), saved as a checkpoint.
-std::string tiny_model_json() {
-  const std::string stack =
-      R"("dim_res_blocks": [16, 8, 8, 8, 4], "num_res_blocks": [0, 1, 1, 1, 0],
-         "resamplers": ["conv_transpose", "conv_transpose", "conv_transpose", "bilinear"],
-         "res_block_in_norm": "none", "res_block_hidden_norm": "none")";
-  const auto head = [&](int channels) {
-    return R"({"dim_in": [16, 8, 8, 8, 4], "dim_out": [null, null, null, null, )" + std::to_string(channels) +
-           "], " + stack + "}";
-  };
-  return R"({
-    "encoder": {"backbone": "dinov2_custom", "intermediate_layers": [0, 1], "dim_out": 16,
-                "backbone_config": {"embed_dim": 32, "depth": 2, "num_heads": 2, "img_size": 56}},
-    "neck": {"dim_in": [18, 2, 2, 2, 2], "dim_out": null, )" + stack + R"(},
-    "mask_head": )" + head(1) + R"(, "scale_head": {"dims": [32, 16, 1]}, "output": "ray_distance",
-    "conditioning": {"encoder_dim": 8, "splat_radius": 3},
-    "ray_head": )" + head(3) + R"(, "distance_head": )" + head(1) + "}";
-}
-
 class EvalCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -96,7 +78,8 @@ class EvalCli : public ::testing::Test {
                                  (work_dir() / "data").string());
     ASSERT_EQ(synth.status, 0) << synth.err;
     at::manual_seed(3);
-    const auto config = omnipoint::model::OmniPointConfig::from_json_text(tiny_model_json());
+    const auto config =
+        omnipoint::model::OmniPointConfig::from_json_text(omnipoint::test::tiny_omnipoint_config_json());
     omnipoint::model::OmniPointModel model(config);
     omnipoint::io::write_safetensors((work_dir() / "tiny.safetensors").string(),
                                      omnipoint::model::state_dict(*model),
@@ -144,7 +127,7 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
 }
 
 TEST_F(EvalCli, RandomModelFromAConfigIsSeeded) {
-  std::ofstream(work_dir() / "tiny_config.json") << tiny_model_json();
+  std::ofstream(work_dir() / "tiny_config.json") << omnipoint::test::tiny_omnipoint_config_json();
   const auto table = [&](const std::string& name) {
     const CliRun run = run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() + " --data " +
                                data() + " --out " + (work_dir() / name).string());

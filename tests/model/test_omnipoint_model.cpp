@@ -19,38 +19,17 @@
 #include "omnipoint/model/omnipoint_model.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/model/state_dict.h"
+#include "support/tiny_omnipoint.h"
 
 namespace omnipoint::model {
 namespace {
 
 constexpr int64_t kNumTokens = 12;  // a 3×4 grid for the 30×40 test images
 
-std::string tiny_config_json(const std::string& output, const std::string& conditioning) {
-  const std::string stack =
-      R"("dim_res_blocks": [16, 8, 8, 8, 4], "num_res_blocks": [0, 1, 1, 1, 0],
-         "resamplers": ["conv_transpose", "conv_transpose", "conv_transpose", "bilinear"],
-         "res_block_in_norm": "none", "res_block_hidden_norm": "none")";
-  const auto head = [&](int channels) {
-    return R"({"dim_in": [16, 8, 8, 8, 4], "dim_out": [null, null, null, null, )" + std::to_string(channels) +
-           "], " + stack + "}";
-  };
-  std::string json = R"({
-    "encoder": {"backbone": "dinov2_custom", "intermediate_layers": [0, 1], "dim_out": 16,
-                "backbone_config": {"embed_dim": 32, "depth": 2, "num_heads": 2, "img_size": 56}},
-    "neck": {"dim_in": [18, 2, 2, 2, 2], "dim_out": null, )" + stack + R"(},
-    "mask_head": )" + head(1) + R"(,
-    "scale_head": {"dims": [32, 16, 1]},
-    "output": ")" + output + R"(",
-    "conditioning": )" + conditioning;
-  json += output == "xyz" ? R"(, "points_head": )" + head(3) + "}"
-                          : R"(, "ray_head": )" + head(3) + R"(, "distance_head": )" + head(1) + "}";
-  return json;
-}
-
 OmniPointModel tiny_model(const std::string& output = "ray_distance",
                           const std::string& conditioning = R"({"encoder_dim": 8, "splat_radius": 3})") {
   at::manual_seed(7);
-  return OmniPointModel(OmniPointConfig::from_json_text(tiny_config_json(output, conditioning)));
+  return OmniPointModel(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json(output, conditioning)));
 }
 
 // Gives the zero-initialised fusion layers (encoders' last conv, state embeddings) values.
@@ -306,15 +285,15 @@ TEST(OmniPointModel, SavesAsHalfPrecisionFilesAndReloads) {
 }
 
 TEST(OmniPointModel, ConfigRoundTripsAndRejectsBadInput) {
-  const OmniPointConfig config = OmniPointConfig::from_json_text(tiny_config_json("ray_distance", "{}"));
+  const OmniPointConfig config = OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", "{}"));
   EXPECT_EQ(OmniPointConfig::from_json(config.to_json()).to_json_text(), config.to_json_text());
   EXPECT_EQ(config_from_metadata(omnipoint_metadata(config)).to_json_text(), config.to_json_text());
 
   EXPECT_THROW(OmniPointConfig::from_json_text("{"), std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(tiny_config_json("points", "{}")), std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(tiny_config_json("ray_distance", R"({"colour": true})")),
+  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("points", "{}")), std::invalid_argument);
+  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", R"({"colour": true})")),
                std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(tiny_config_json("ray_distance", R"({"splat_radius": -1})")),
+  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", R"({"splat_radius": -1})")),
                std::invalid_argument);
   EXPECT_THROW(config_from_metadata({{"format", "moge2"}, {"config", config.to_json_text()}}),
                std::invalid_argument);

@@ -24,6 +24,7 @@
 #include "omnipoint/train/batch_source.h"
 #include "omnipoint/train/checkpoint.h"
 #include "omnipoint/train/trainer.h"
+#include "support/tiny_omnipoint.h"
 
 namespace omnipoint::train {
 namespace {
@@ -32,31 +33,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 json tiny_model_json() {
-  const json stack = {{"dim_res_blocks", {16, 8, 8, 8, 4}},
-                      {"num_res_blocks", {0, 1, 1, 1, 0}},
-                      {"resamplers", {"conv_transpose", "conv_transpose", "conv_transpose", "bilinear"}},
-                      {"res_block_in_norm", "none"},
-                      {"res_block_hidden_norm", "none"}};
-  const auto head = [&](int channels) {
-    json h = stack;
-    h["dim_in"] = {16, 8, 8, 8, 4};
-    h["dim_out"] = {nullptr, nullptr, nullptr, nullptr, channels};
-    return h;
-  };
-  json neck = stack;
-  neck["dim_in"] = {18, 2, 2, 2, 2};
-  neck["dim_out"] = nullptr;
-  return {{"encoder",
-           {{"backbone", "dinov2_custom"},
-            {"intermediate_layers", {0, 1}},
-            {"dim_out", 16},
-            {"backbone_config", {{"embed_dim", 32}, {"depth", 2}, {"num_heads", 2}, {"img_size", 56}}}}},
-          {"neck", neck},
-          {"mask_head", head(1)},
-          {"ray_head", head(3)},
-          {"distance_head", head(1)},
-          {"scale_head", {{"dims", {32, 16, 1}}}},
-          {"conditioning", {{"encoder_dim", 8}, {"splat_radius", 2}}}};
+  return json::parse(test::tiny_omnipoint_config_json("ray_distance", R"({"encoder_dim": 8, "splat_radius": 2})"));
 }
 
 json tiny_config(const std::string& output_dir) {
