@@ -12,17 +12,11 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/render.h"
 #include "omnipoint/data/synth/synthesize.h"
+#include "support/fast_synth.h"
 
 namespace omnipoint::augment {
 namespace {
 using data::synth::SceneKind;
-
-data::synth::SynthOptions fast_render() {
-  data::synth::SynthOptions options;
-  options.render.shadows = false;
-  options.render.ambient_occlusion = false;
-  return options;
-}
 
 // The renderer as a teacher: the view's rays, turned by the view's rotation into the wide
 // camera's frame, are cast into the scene (same centre); `scale` multiplies the distances.
@@ -41,7 +35,7 @@ TEST(AnyToPerspective, OracleLabelEqualsTheWideGroundTruthInsideTheFootprint) {
                                           fisheye_with_fov("DOUBLE_SPHERE", 128, 128, 200, {-0.1, 0.6})};
   for (const auto& wide : wides) {
     SCOPED_TRACE(wide.to_spec());
-    const auto truth = data::synth::synthesize(SceneKind::kIndoor, 5, wide, fast_render());
+    const auto truth = data::synth::synthesize(SceneKind::kIndoor, 5, wide, test::fast_synth());
     const PerspectiveView view = make_perspective_view(70, 30, 10, 96, 80);
     const auto result = any_to_perspective(wide, truth.sample.image, view, oracle(truth.scene, view.rotation));
     EXPECT_EQ(result.extracted.image.sizes(), at::IntArrayRef({80, 96, 3}));
@@ -65,7 +59,7 @@ TEST(AnyToPerspective, OracleLabelEqualsTheWideGroundTruthInsideTheFootprint) {
 
 TEST(AnyToPerspective, ExtractedViewIsTheRenderedView) {
   const camera::Camera wide("EQUIRECTANGULAR", 512, 256, {});
-  const auto truth = data::synth::synthesize(SceneKind::kOutdoor, 2, wide, fast_render());
+  const auto truth = data::synth::synthesize(SceneKind::kOutdoor, 2, wide, test::fast_synth());
   const PerspectiveView view = make_perspective_view(60, -40, 5, 64, 48);
   const auto extracted = extract_view(wide, truth.sample.image, view);
   // The renderer's own pinhole view through the same rotation.
@@ -92,7 +86,7 @@ TEST(AnyToPerspective, SampledViewsLookWhereTheWideCameraSees) {
 
 TEST(AnyToPerspective, MultiViewMergeRecoversOneScaleFromInconsistentViews) {
   const camera::Camera wide("EQUIRECTANGULAR", 128, 64, {});
-  const auto truth = data::synth::synthesize(SceneKind::kIndoor, 9, wide, fast_render());
+  const auto truth = data::synth::synthesize(SceneKind::kIndoor, 9, wide, test::fast_synth());
   MultiViewOptions options;
   options.view_size = 64;
   // Each call answers at a different random scale (a perspective model's unknown scale).

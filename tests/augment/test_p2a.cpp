@@ -16,17 +16,11 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/render.h"
 #include "omnipoint/data/synth/synthesize.h"
+#include "support/fast_synth.h"
 
 namespace omnipoint::augment {
 namespace {
 using data::synth::SceneKind;
-
-data::synth::SynthOptions fast_render() {
-  data::synth::SynthOptions options;
-  options.render.shadows = false;
-  options.render.ambient_occlusion = false;
-  return options;
-}
 
 // Distances of valid pixels agree with the ground truth within 2 % everywhere: the read-back
 // interpolates bilinearly between source pixel centres that agree within the 5 % tolerance,
@@ -42,8 +36,8 @@ double quantile_of(const at::Tensor& values, double q) {
 TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
   const auto pinhole = camera::centred_pinhole(90, 160, 120);
   const camera::Camera pano("EQUIRECTANGULAR", 256, 128, {});
-  const auto source = data::synth::synthesize(SceneKind::kIndoor, 7, pinhole, fast_render());
-  const auto truth = data::synth::synthesize(SceneKind::kIndoor, 7, pano, fast_render());
+  const auto source = data::synth::synthesize(SceneKind::kIndoor, 7, pinhole, test::fast_synth());
+  const auto truth = data::synth::synthesize(SceneKind::kIndoor, 7, pano, test::fast_synth());
   const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance, source.sample.mask,
                                       {pano, {}, {}});
   EXPECT_EQ(out.camera, pano);
@@ -72,7 +66,7 @@ TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
 TEST(PerspectiveToAny, RotatedFisheyeMatchesTheRendererThroughTheSameRotation) {
   const auto pinhole = camera::centred_pinhole(100, 160, 120);
   const auto fisheye = fisheye_with_fov("DOUBLE_SPHERE", 128, 128, 200, {-0.1, 0.6});
-  const auto source = data::synth::synthesize(SceneKind::kOutdoor, 3, pinhole, fast_render());
+  const auto source = data::synth::synthesize(SceneKind::kOutdoor, 3, pinhole, test::fast_synth());
   const at::Tensor rotation = rotation_from_angles(20, -10, 5);
   const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance, source.sample.mask,
                                       {fisheye, rotation, {}});

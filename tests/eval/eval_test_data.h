@@ -9,6 +9,7 @@
 
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/synthesize.h"
+#include "support/fast_synth.h"
 
 namespace omnipoint::eval::testing {
 
@@ -26,9 +27,7 @@ inline std::filesystem::path make_tiny_dataset(const std::string& name, int per_
   namespace fs = std::filesystem;
   const fs::path root = fs::temp_directory_path() / ("omnipoint_eval_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(root);
-  data::synth::SynthOptions options;
-  options.render.shadows = false;
-  options.render.ambient_occlusion = false;
+  const data::synth::SynthOptions options = test::fast_synth();
   const std::vector<std::string> splits{"sfov", "lfov", "pano"};
   for (size_t s = 0; s < splits.size(); ++s) {
     const auto camera = camera::parse_camera(tiny_cameras()[s]);

@@ -12,6 +12,7 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/data/synth/synthesize.h"
+#include "support/fast_synth.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/glb.h"
 #include "omnipoint/io/image.h"
@@ -26,10 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 data::synth::SynthSample render(const std::string& spec, uint64_t seed = 3) {
-  data::synth::SynthOptions options;
-  options.render.shadows = false;
-  options.render.ambient_occlusion = false;
-  return data::synth::synthesize(data::synth::SceneKind::kIndoor, seed, camera::parse_camera(spec), options);
+  return data::synth::synthesize(data::synth::SceneKind::kIndoor, seed, camera::parse_camera(spec), test::fast_synth());
 }
 
 fs::path fresh_dir(const std::string& name) {
