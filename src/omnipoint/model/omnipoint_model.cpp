@@ -66,6 +66,12 @@ OmniPointModelImpl::OmniPointModelImpl(const OmniPointConfig& config) : config_(
   }
 }
 
+bool is_conditioning_tensor(const std::string& name) {
+  for (const char* branch : {"intrinsics_encoder.", "intrinsics_state.", "sparse_depth_encoder.", "depth_state."})
+    if (name.rfind(branch, 0) == 0) return true;
+  return false;
+}
+
 OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const OmniPointInputs& inputs,
                                                                            const TokenGrid& grid) {
   check_inputs(inputs);

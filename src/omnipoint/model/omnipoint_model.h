@@ -21,6 +21,7 @@
 #include <torch/nn/pimpl.h>
 
 #include <cstdint>
+#include <string>
 
 #include "omnipoint/model/conditioning.h"
 #include "omnipoint/model/conv_stack.h"
@@ -96,6 +97,10 @@ class OmniPointModelImpl : public torch::nn::Module {
   OmniPointConfig config_;
 };
 TORCH_MODULE(OmniPointModel);
+
+// Whether a state_dict name belongs to a condition branch (the intrinsics and sparse-depth
+// encoders and state embeddings), which a config may add or drop around the same network.
+bool is_conditioning_tensor(const std::string& name);
 
 // Metric post-alignment to metric sparse depth: the metric scale (and the points) rescaled by
 // sparse_depth_alignment_scale(ŝ·d̂, sparse_depth). Items without samples are unchanged.

@@ -183,14 +183,16 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images, const Pre
                                 ", got " + c10::str(sparse.depth_map.sizes()));
 
   std::optional<camera::Camera> camera;
-  at::Tensor camera_rays;  // (B,H,W,3) on the device
+  at::Tensor camera_rays;   // (B,H,W,3) on the device
+  at::Tensor camera_valid;  // (H,W) where the camera has rays
   bool multi_view = false;  // a perspective-only model on a wide camera
   if (options.camera) {
     camera = camera_for_image(*options.camera, width, height);
-    camera_rays = camera->ray_map(input.options()).rays.unsqueeze(0).expand({batch, height, width, 3});
+    const camera::Rays ray_map = camera->ray_map(input.options());
+    camera_rays = ray_map.rays.unsqueeze(0).expand({batch, height, width, 3});
+    camera_valid = ray_map.valid;
     if (impl_->moge2) {
-      const camera::Rays camera_ray_map = camera->ray_map();
-      multi_view = auto_fit_model(camera_ray_map.rays, camera_ray_map.valid) != "PINHOLE";
+      multi_view = auto_fit_model(ray_map.rays.to(at::kCPU), ray_map.valid.to(at::kCPU)) != "PINHOLE";
       notes.push_back(multi_view ? "MoGe-2 checkpoint on a wide camera: multi-view mode (pinhole views tiling the "
                                    "field of view, predicted and merged)"
                                  : "MoGe-2 checkpoint: the camera is not a network input (pinhole model)");
@@ -264,7 +266,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images, const Pre
     // A given camera is used as it is: its rays carry the predicted distances (pixels outside
     // its domain are invalid); the predicted rays stand in only for an unknown camera.
     const at::Tensor rays = camera_rays.defined() ? camera_rays[b] : net.rays[b];
-    const at::Tensor mask = camera_rays.defined() ? net.mask[b] & (camera_rays[b].abs().sum(-1) > 0) : net.mask[b];
+    const at::Tensor mask = camera_rays.defined() ? net.mask[b] & camera_valid : net.mask[b];
     Prediction p = prediction_from_geometry(rays.to(at::kCPU, at::kFloat), (net.distance[b] * s).to(at::kCPU, at::kFloat),
                                             mask.to(at::kCPU), s);
     p.alignment_factor = factor_cpu[b].item<double>();

@@ -51,10 +51,11 @@ data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
 }
 
 // A2P: the sample's labels replaced by the teacher's, stitched back from one random view.
-data::Sample any_to_perspective(const data::Sample& sample, const augment::Teacher& teacher, uint64_t seed) {
+// camera_valid: where the sample's camera has rays.
+data::Sample any_to_perspective(const data::Sample& sample, const at::Tensor& camera_valid,
+                                const augment::Teacher& teacher, uint64_t seed) {
   augment::A2PViewDistribution distribution;
   distribution.min_size = distribution.max_size = std::max(sample.camera.width(), sample.camera.height());
-  const at::Tensor camera_valid = sample.camera.ray_map(at::kFloat).valid;
   const augment::PerspectiveView view =
       augment::sample_perspective_view(sample.camera, distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
   const augment::A2PResult result = augment::any_to_perspective(sample.camera, sample.image, view, teacher, camera_valid);
@@ -131,18 +132,19 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
     }();
     // The augmentations draw only when enabled, so a config without them sees the same items.
     data::Sample sample = loaded;
+    camera::Rays ray_map = loaded.camera.ray_map(at::kFloat);
     const camera::CameraClass lens = camera::camera_class(loaded.camera);
     bool sky_known = true;
     if (conditions && config_.p2a && lens == camera::CameraClass::kPerspective &&
         random.chance(config_.p2a_probability)) {
       sample = perspective_to_any(loaded, random.next_u64());
+      ray_map = sample.camera.ray_map(at::kFloat);
       sky_known = false;
     } else if (conditions && config_.a2p && lens != camera::CameraClass::kPerspective &&
                random.chance(config_.a2p_probability)) {
-      sample = any_to_perspective(loaded, teacher_, random.next_u64());
+      sample = any_to_perspective(loaded, ray_map.valid, teacher_, random.next_u64());
       sky_known = false;
     }
-    const camera::Rays ray_map = sample.camera.ray_map(at::kFloat);
     const at::Tensor camera_valid = ray_map.valid;
     images.push_back(sample.image.permute({2, 0, 1}));
     rays.push_back(ray_map.rays);

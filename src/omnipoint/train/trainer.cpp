@@ -46,13 +46,8 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     for (const auto& [key, value] : config.model.items()) merged[key] = value;
     OmniPointModel network(OmniPointConfig::from_json(merged));
     const LoadReport report = load_state_dict(*network, file.tensors, LoadMode::kPartial);
-    const auto conditioning = [](const std::string& name) {
-      for (const char* branch : {"intrinsics_encoder.", "intrinsics_state.", "sparse_depth_encoder.", "depth_state."})
-        if (name.rfind(branch, 0) == 0) return true;
-      return false;
-    };
     for (const std::string& name : report.missing)
-      if (!conditioning(name))
+      if (!is_conditioning_tensor(name))
         throw std::invalid_argument("init.path \"" + config.init_path + "\": lacks \"" + name +
                                     "\", which is not a conditioning tensor");
     if (!report.mismatched.empty())
