@@ -103,7 +103,7 @@ void BM_ScaleTruncated(benchmark::State& state) {
 BENCHMARK(BM_ScaleTruncated)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_ComputeMetricsFixtureInstance3(benchmark::State& state) {
-  const std::string dir = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge_metrics_a/instance_3/";
+  const std::string dir = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge_metrics_a/instance_3/";
   eval::GroundTruth gt;
   gt.depth = io::read_npy(dir + "gt_depth.npy");
   gt.points = io::read_npy(dir + "gt_points.npy");

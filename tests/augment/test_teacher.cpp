@@ -50,8 +50,8 @@ TEST(Teacher, OmniPointTeacherReturnsTheModelsMetricDistanceAlongItsRays) {
 }
 
 TEST(Teacher, MoGe2TeacherReturnsInferDistancesWhereItsMaskHolds) {
-  // The MoGe-2 architecture of the shared fixture (random weights).
-  std::ifstream in(std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a/meta.json");
+  // The MoGe-2 architecture of the MoGe-2 parity fixture (tests/fixtures/moge2_forward_a, random weights).
+  std::ifstream in(std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/meta.json");
   const nlohmann::json meta = nlohmann::json::parse(in);
   const PerspectiveView view = make_perspective_view(60, 0, 0, 56, 42);
   const at::Tensor image = at::rand({42, 56, 3});

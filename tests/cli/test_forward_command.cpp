@@ -14,7 +14,7 @@ namespace {
 namespace fs = std::filesystem;
 using omnipoint::io::read_npy;
 
-const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
 const std::string kModel = kFixture + "/model.safetensors";
 
 class ForwardCommand : public ::testing::Test {

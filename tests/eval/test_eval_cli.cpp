@@ -145,8 +145,8 @@ TEST_F(EvalCli, RandomModelFromAConfigIsSeeded) {
 TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
   // The MoGe-2 parity fixture's tiny random-weight model: image only, so +K is reported not run.
   const fs::path out = work_dir() / "eval_moge2";
-  const CliRun run = run_cli("eval --model " + std::string(OMNIPOINT_SHARED_DIR) +
-                             "/fixtures/moge2_forward_a/model.safetensors --label MoGe-2 --data " + data() +
+  const CliRun run = run_cli("eval --model " + std::string(OMNIPOINT_FIXTURE_DIR) +
+                             "/moge2_forward_a/model.safetensors --label MoGe-2 --data " + data() +
                              " --intrinsics --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("mode +K not run: MoGe-2 takes no such input"), std::string::npos) << run.err;

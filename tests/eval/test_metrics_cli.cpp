@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge_metrics_a";
+const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge_metrics_a";
 
 using omnipoint::test::CliRun;
 using omnipoint::test::slurp;

@@ -1,4 +1,4 @@
-// Parity with MoGe's compute_metrics on ../shared/fixtures/moge_metrics_a (README §2).
+// Parity with MoGe's compute_metrics on tests/fixtures/moge_metrics_a (its README §2).
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
@@ -16,7 +16,7 @@ using omnipoint::io::read_npy;
 
 namespace {
 
-const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge_metrics_a";
+const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge_metrics_a";
 
 nlohmann::json read_json(const std::string& path) {
   std::ifstream file(path);

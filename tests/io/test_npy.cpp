@@ -71,16 +71,15 @@ TEST(Npy, NonContiguousInputIsWrittenInLogicalOrder) {
 
 TEST(Npy, ReadsNumpyWrittenFixture) {
   const std::string path =
-      std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a/input.npy";
-  if (!fs::exists(path)) GTEST_SKIP() << "shared fixtures not present at " << path;
+      std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/input.npy";
   const at::Tensor t = read_npy(path);
   EXPECT_EQ(t.scalar_type(), at::kFloat);
   ASSERT_EQ(t.dim(), 4);
   EXPECT_EQ(t.size(1), 3);
   EXPECT_GE(t.min().item<float>(), 0.0f);
   EXPECT_LE(t.max().item<float>(), 1.0f);
-  const at::Tensor mask = read_npy(std::string(OMNIPOINT_SHARED_DIR) +
-                                   "/fixtures/moge2_forward_a/expected_infer_mask.npy");
+  const at::Tensor mask = read_npy(std::string(OMNIPOINT_FIXTURE_DIR) +
+                                   "/moge2_forward_a/expected_infer_mask.npy");
   EXPECT_EQ(mask.scalar_type(), at::kByte);
 }
 

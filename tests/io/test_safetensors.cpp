@@ -19,7 +19,7 @@ using omnipoint::io::write_safetensors;
 namespace {
 
 const std::string kFixture =
-    std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a/model.safetensors";
+    std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/model.safetensors";
 
 // A file from a header text and a data section, exactly as given (no padding).
 std::string make_file(const std::string& header, const std::string& data = "") {

@@ -1,5 +1,5 @@
 // Parity of the MoGe-2 network and its infer() post-processing with the reference fixture
-// computed by MoGe's own code (../shared/fixtures/README.md §1). Every size comes from the
+// computed by MoGe's own code (tests/fixtures/README.md §1). Every size comes from the
 // fixture's config, arrays and meta.json.
 #include <ATen/ATen.h>
 #include <c10/core/InferenceMode.h>
@@ -20,7 +20,7 @@ namespace {
 
 using namespace omnipoint;
 
-const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
 
 nlohmann::json read_meta() {
   std::ifstream in(kFixture + "/meta.json");

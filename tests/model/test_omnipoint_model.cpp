@@ -1,5 +1,5 @@
 // The OmniPoint network on a tiny random config: outputs, conditioning, save/reload and
-// initialisation from MoGe-2 (the shared fixture's weights) and DINOv2.
+// initialisation from MoGe-2 (the weights of tests/fixtures/moge2_forward_a) and DINOv2.
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 #include <torch/nn/init.h>
@@ -327,7 +327,7 @@ TEST(OmniPointModel, MetricPostAlignmentRescalesToTheSparseDepth) {
 // ---------------------------------------------------------------------------------------------
 // Initialisation
 
-const std::string kFixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
 
 TEST(OmniPointInit, FromMoGe2FixtureKeepsMoGe2Features) {
   const io::SafetensorsFile file = io::read_safetensors(kFixture + "/model.safetensors");

@@ -184,7 +184,7 @@ namespace {
 // A MoGe-2 checkpoint runs through the same API as a pinhole model: its infer() points (the
 // shared reference fixture, computed with MoGe's own code) come back as rays × distances.
 TEST(Predictor, MoGe2CheckpointGivesItsInferPoints) {
-  const std::string fixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+  const std::string fixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
   const Model model = Model::load(fixture + "/model.safetensors");
   EXPECT_EQ(model.format(), "moge2");
   const at::Tensor image = io::read_npy(fixture + "/input.npy")[0].permute({1, 2, 0});
@@ -210,7 +210,7 @@ namespace {
 // A MoGe-2 checkpoint on a fisheye camera runs in A2P's multi-view mode and says so; the rays
 // are the camera's.
 TEST(Predictor, MoGe2OnAFisheyeUsesMultiViewMode) {
-  const std::string fixture = std::string(OMNIPOINT_SHARED_DIR) + "/fixtures/moge2_forward_a";
+  const std::string fixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
   const Model model = Model::load(fixture + "/model.safetensors");
   PredictOptions options;
   options.num_tokens = 300;

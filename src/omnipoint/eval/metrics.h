@@ -1,5 +1,5 @@
 #pragma once
-// MoGe's evaluation protocol for one image (../shared/fixtures/README.md §2.3–2.4).
+// MoGe's evaluation protocol for one image (tests/fixtures/README.md §2.3–2.4).
 //
 // Entries, each scored by `rel` and `delta1` over all valid full-resolution pixels:
 //   depth_metric, depth_scale_invariant, depth_affine_invariant, disparity_affine_invariant,
