@@ -47,13 +47,15 @@ PointSamples point_samples(int64_t n) {
 
 void BM_DepthAffineFast(benchmark::State& state) {
   const DepthSamples s = depth_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_affine_l1(s.pred, s.gt, s.weight).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_affine_l1(s.pred, s.gt, s.weight).scale);
 }
 BENCHMARK(BM_DepthAffineFast)->Arg(256)->Arg(1024)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_DepthAffineBruteForce(benchmark::State& state) {
   const DepthSamples s = depth_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_affine_l1_brute_force(s.pred, s.gt, s.weight).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_affine_l1_brute_force(s.pred, s.gt, s.weight).scale);
 }
 BENCHMARK(BM_DepthAffineBruteForce)->Arg(256)->Arg(1024)->Arg(4096)->Unit(benchmark::kMillisecond);
 
@@ -66,39 +68,49 @@ BENCHMARK(BM_DepthAffineFastBatch8)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_PointsAnchoredPruned(benchmark::State& state) {
   const PointSamples s = point_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_points_affine_l1_anchored(s.pred, s.gt, s.weight).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_points_affine_l1_anchored(s.pred, s.gt, s.weight).scale);
 }
 BENCHMARK(BM_PointsAnchoredPruned)->Arg(256)->Arg(1024)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_PointsAnchoredBruteForce(benchmark::State& state) {
   const PointSamples s = point_samples(state.range(0));
   for (auto _ : state)
-    benchmark::DoNotOptimize(geometry::fit_points_affine_l1_anchored_brute_force(s.pred, s.gt, s.weight).scale);
+    benchmark::DoNotOptimize(
+        geometry::fit_points_affine_l1_anchored_brute_force(s.pred, s.gt, s.weight).scale);
 }
-BENCHMARK(BM_PointsAnchoredBruteForce)->Arg(256)->Arg(1024)->Arg(4096)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PointsAnchoredBruteForce)
+    ->Arg(256)
+    ->Arg(1024)
+    ->Arg(4096)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_PointsAffineGlobal(benchmark::State& state) {
   const PointSamples s = point_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_points_affine_l1(s.pred, s.gt, s.weight).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_points_affine_l1(s.pred, s.gt, s.weight).scale);
 }
 BENCHMARK(BM_PointsAffineGlobal)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_PointsScaleZShiftTruncated(benchmark::State& state) {
   const PointSamples s = point_samples(state.range(0));
   for (auto _ : state)
-    benchmark::DoNotOptimize(geometry::fit_points_scale_z_shift_l1_truncated(s.pred, s.gt, s.weight, 1.0).scale);
+    benchmark::DoNotOptimize(
+        geometry::fit_points_scale_z_shift_l1_truncated(s.pred, s.gt, s.weight, 1.0).scale);
 }
 BENCHMARK(BM_PointsScaleZShiftTruncated)->Arg(1024)->Unit(benchmark::kMillisecond);
 
 void BM_ScaleMedian(benchmark::State& state) {
   const DepthSamples s = depth_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_scale_l1(s.pred, s.gt, s.weight).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_scale_l1(s.pred, s.gt, s.weight).scale);
 }
 BENCHMARK(BM_ScaleMedian)->Arg(4096)->Unit(benchmark::kMillisecond);
 
 void BM_ScaleTruncated(benchmark::State& state) {
   const DepthSamples s = depth_samples(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::fit_scale_l1_truncated(s.pred, s.gt, s.weight, 0.1).scale);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::fit_scale_l1_truncated(s.pred, s.gt, s.weight, 0.1).scale);
 }
 BENCHMARK(BM_ScaleTruncated)->Arg(4096)->Unit(benchmark::kMillisecond);
 

@@ -20,8 +20,18 @@ std::vector<at::Tensor> vit_small_gradients() {
   const int64_t d = 384;
   std::vector<at::Tensor> tensors;
   for (int block = 0; block < 12; ++block) {
-    for (const auto& shape : std::vector<std::vector<int64_t>>{
-             {d}, {d}, {3 * d, d}, {3 * d}, {d, d}, {d}, {d}, {d}, {4 * d, d}, {4 * d}, {d, 4 * d}, {d}})
+    for (const auto& shape : std::vector<std::vector<int64_t>>{{d},
+                                                               {d},
+                                                               {3 * d, d},
+                                                               {3 * d},
+                                                               {d, d},
+                                                               {d},
+                                                               {d},
+                                                               {d},
+                                                               {4 * d, d},
+                                                               {4 * d},
+                                                               {d, 4 * d},
+                                                               {d}})
       tensors.push_back(at::randn(shape));
   }
   for (const auto& shape : std::vector<std::vector<int64_t>>{{d, 3, 14, 14}, {d}, {1370, d}, {d}})
@@ -49,8 +59,12 @@ void BM_AllReduceGradients(benchmark::State& state) {
   state.counters["all_reduces"] = static_cast<double>(reduces);
 }
 BENCHMARK(BM_AllReduceGradients)
-    ->Arg(1)->Arg(1 << 20)->Arg(25 << 20)
-    ->Iterations(5)->Unit(benchmark::kMillisecond)->UseRealTime();
+    ->Arg(1)
+    ->Arg(1 << 20)
+    ->Arg(25 << 20)
+    ->Iterations(5)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

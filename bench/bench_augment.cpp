@@ -40,12 +40,20 @@ void run_p2a(benchmark::State& state, const camera::Camera& target) {
   options.supersample = state.range(0);
   const augment::VirtualView view{target, augment::rotation_from_angles(10, 5, 0), {}};
   for (auto _ : state) {
-    benchmark::DoNotOptimize(augment::perspective_to_any(s.camera, s.image, s.distance, s.mask, view, options).mask);
+    benchmark::DoNotOptimize(
+        augment::perspective_to_any(s.camera, s.image, s.distance, s.mask, view, options).mask);
   }
 }
 
-void BM_P2A_Panorama2048(benchmark::State& state) { run_p2a(state, camera::Camera("EQUIRECTANGULAR", 2048, 1024, {})); }
-BENCHMARK(BM_P2A_Panorama2048)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+void BM_P2A_Panorama2048(benchmark::State& state) {
+  run_p2a(state, camera::Camera("EQUIRECTANGULAR", 2048, 1024, {}));
+}
+BENCHMARK(BM_P2A_Panorama2048)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_P2A_Fisheye1024(benchmark::State& state) {
   run_p2a(state, augment::fisheye_with_fov("DOUBLE_SPHERE", 1024, 1024, 200, {-0.1, 0.6}));
@@ -57,7 +65,8 @@ void BM_A2P_ExtractAndStitch(benchmark::State& state) {
   const camera::Camera wide("EQUIRECTANGULAR", 2048, 1024, {});
   const at::Tensor image = at::rand({1024, 2048, 3}, at::kFloat);
   const auto view = augment::make_perspective_view(80, 30, 10, 518, 518);
-  const augment::TeacherPrediction prediction{{}, at::full({518, 518}, 3.0f), at::ones({518, 518}, at::kBool)};
+  const augment::TeacherPrediction prediction{
+      {}, at::full({518, 518}, 3.0f), at::ones({518, 518}, at::kBool)};
   for (auto _ : state) {
     benchmark::DoNotOptimize(augment::extract_view(wide, image, view).image);
     benchmark::DoNotOptimize(augment::stitch_view(wide, view, prediction).mask);

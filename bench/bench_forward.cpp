@@ -24,7 +24,8 @@ namespace {
 using namespace omnipoint::model;
 
 nlohmann::json conv_stack(int64_t width, int64_t level0_in, bool neck, nlohmann::json out) {
-  return {{"dim_in", neck ? nlohmann::json{level0_in, 2, 2, 2, 2} : nlohmann::json{width, 256, 128, 64, 32}},
+  return {{"dim_in",
+           neck ? nlohmann::json{level0_in, 2, 2, 2, 2} : nlohmann::json{width, 256, 128, 64, 32}},
           {"dim_out", out},
           {"dim_res_blocks", {width, 256, 128, 64, 32}},
           {"num_res_blocks", neck ? nlohmann::json{0, 2, 2, 2, 0} : nlohmann::json{0, 1, 1, 1, 0}},
@@ -36,32 +37,40 @@ nlohmann::json conv_stack(int64_t width, int64_t level0_in, bool neck, nlohmann:
 MoGe2Config moge2_config(const std::string& backbone) {
   const DinoV2Config vit = DinoV2Config::hub(backbone);
   const int64_t c = vit.embed_dim;
-  const nlohmann::json layers = vit.depth == 24 ? nlohmann::json{5, 11, 17, 23} : nlohmann::json{2, 5, 8, 11};
+  const nlohmann::json layers =
+      vit.depth == 24 ? nlohmann::json{5, 11, 17, 23} : nlohmann::json{2, 5, 8, 11};
   const nlohmann::json none = nullptr;
-  return MoGe2Config::from_json({{"encoder", {{"backbone", backbone}, {"intermediate_layers", layers}, {"dim_out", c}}},
-                                 {"neck", conv_stack(c, c + 2, true, none)},
-                                 {"points_head", conv_stack(c, c, false, {none, none, none, none, 3})},
-                                 {"mask_head", conv_stack(c, c, false, {none, none, none, none, 1})},
-                                 {"normal_head", conv_stack(c, c, false, {none, none, none, none, 3})},
-                                 {"scale_head", {{"dims", {c, c, c, 1}}}},
-                                 {"remap_output", "exp"},
-                                 {"num_tokens_range", {1200, 3600}}});
+  return MoGe2Config::from_json(
+      {{"encoder", {{"backbone", backbone}, {"intermediate_layers", layers}, {"dim_out", c}}},
+       {"neck", conv_stack(c, c + 2, true, none)},
+       {"points_head", conv_stack(c, c, false, {none, none, none, none, 3})},
+       {"mask_head", conv_stack(c, c, false, {none, none, none, none, 1})},
+       {"normal_head", conv_stack(c, c, false, {none, none, none, none, 3})},
+       {"scale_head", {{"dims", {c, c, c, 1}}}},
+       {"remap_output", "exp"},
+       {"num_tokens_range", {1200, 3600}}});
 }
 
 const char* kBackbones[] = {"dinov2_vits14", "dinov2_vitb14", "dinov2_vitl14"};
 
-at::Tensor test_image() { return at::rand({1, 3, 480, 640}); }
+at::Tensor test_image() {
+  return at::rand({1, 3, 480, 640});
+}
 
 // Peak resident memory of one benchmark: Linux's high-water mark (VmHWM), reset at its start
 // by writing 5 to /proc/self/clear_refs. Memory the allocator kept from earlier benchmarks
 // counts too: run one configuration per process for clean figures.
-void reset_peak_memory() { std::ofstream("/proc/self/clear_refs") << "5"; }
+void reset_peak_memory() {
+  std::ofstream("/proc/self/clear_refs") << "5";
+}
 // CPU seconds of the whole process (all threads): with other jobs on the machine, wall time
 // depends on the load; CPU time much less so.
 double process_cpu_seconds() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
@@ -79,9 +88,11 @@ void BM_Gemm(benchmark::State& state) {
   at::mm(a, b);
   const double cpu_start = process_cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(at::mm(a, b));
-  state.counters["cpu_s"] = benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
-  state.counters["GFLOP/s"] = benchmark::Counter(2.0 * 2400 * 1024 * 4096, benchmark::Counter::kIsIterationInvariantRate,
-                                                 benchmark::Counter::kIs1000);
+  state.counters["cpu_s"] =
+      benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
+  state.counters["GFLOP/s"] =
+      benchmark::Counter(2.0 * 2400 * 1024 * 4096, benchmark::Counter::kIsIterationInvariantRate,
+                         benchmark::Counter::kIs1000);
 }
 
 // The transformer blocks alone (tokens prepared once): FLOPs per block 24·N·C² + 4·N²·C.
@@ -96,12 +107,14 @@ void BM_VitBlocks(benchmark::State& state) {
   const auto& layers = encoder.config().intermediate_layers;
   encoder.backbone->intermediate_layers(tokens, layers);  // warm-up
   const double cpu_start = process_cpu_seconds();
-  for (auto _ : state) benchmark::DoNotOptimize(encoder.backbone->intermediate_layers(tokens, layers));
-  state.counters["cpu_s"] = benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(encoder.backbone->intermediate_layers(tokens, layers));
+  state.counters["cpu_s"] =
+      benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
   const double n = static_cast<double>(tokens.size(1)), c = static_cast<double>(tokens.size(2));
   const double flops = (24 * n * c * c + 4 * n * n * c) * static_cast<double>(layers.back() + 1);
-  state.counters["GFLOP/s"] =
-      benchmark::Counter(flops, benchmark::Counter::kIsIterationInvariantRate, benchmark::Counter::kIs1000);
+  state.counters["GFLOP/s"] = benchmark::Counter(
+      flops, benchmark::Counter::kIsIterationInvariantRate, benchmark::Counter::kIs1000);
   state.counters["tokens"] = static_cast<double>(grid.rows * grid.cols);
 }
 
@@ -114,7 +127,8 @@ void BM_Forward(benchmark::State& state) {
   model->forward(image, state.range(1));  // warm-up
   const double cpu_start = process_cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(model->forward(image, state.range(1)));
-  state.counters["cpu_s"] = benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
+  state.counters["cpu_s"] =
+      benchmark::Counter(process_cpu_seconds() - cpu_start, benchmark::Counter::kAvgIterations);
   state.counters["peak_MB"] = peak_memory_mb();
 }
 

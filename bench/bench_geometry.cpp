@@ -23,18 +23,24 @@ at::Tensor sparse_map(int64_t batch, int64_t height, int64_t width, int64_t coun
 }
 
 void BM_SplatSparseDepth(benchmark::State& state) {
-  const int64_t batch = state.range(0), height = state.range(1), width = state.range(2), count = state.range(3);
+  const int64_t batch = state.range(0), height = state.range(1), width = state.range(2),
+                count = state.range(3);
   const at::Tensor sparse = sparse_map(batch, height, width, count);
   for (auto _ : state) benchmark::DoNotOptimize(geometry::splat_sparse_depth(sparse).smooth);
 }
-BENCHMARK(BM_SplatSparseDepth)->Args({1, 518, 518, 1000})->Args({8, 518, 518, 1000})
-    ->Args({1, 1080, 1920, 2000})->Args({1, 480, 640, 307200})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SplatSparseDepth)
+    ->Args({1, 518, 518, 1000})
+    ->Args({8, 518, 518, 1000})
+    ->Args({1, 1080, 1920, 2000})
+    ->Args({1, 480, 640, 307200})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_SampleLidar(benchmark::State& state) {
   auto camera = camera::centred_pinhole(90.0, 1920, 1080);
   const auto rays = camera.ray_map(at::kFloat);
   const at::Tensor dense = at::full({1080, 1920}, 5.0f);
-  for (auto _ : state) benchmark::DoNotOptimize(geometry::sample_lidar(dense, rays.valid, rays.rays).depth);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(geometry::sample_lidar(dense, rays.valid, rays.rays).depth);
 }
 BENCHMARK(BM_SampleLidar)->Unit(benchmark::kMillisecond);
 

@@ -26,12 +26,15 @@ OmniPointConfig vit_s_config() {
       "resamplers": ["conv_transpose", "conv_transpose", "conv_transpose", "bilinear"])";
   const auto head = [&](int channels) {
     return R"({"dim_in": [384, 256, 128, 64, 32], "num_res_blocks": [0, 1, 1, 1, 0],
-               "dim_out": [null, null, null, null, )" + std::to_string(channels) + "], " + dims + "}";
+               "dim_out": [null, null, null, null, )" +
+           std::to_string(channels) + "], " + dims + "}";
   };
   return OmniPointConfig::from_json_text(
       R"({"encoder": {"backbone": "dinov2_vits14", "intermediate_layers": [2, 5, 8, 11], "dim_out": 384},
-          "neck": {"dim_in": [386, 2, 2, 2, 2], "num_res_blocks": [0, 2, 2, 2, 0], "dim_out": null, )" + dims + R"(},
-          "ray_head": )" + head(3) + R"(, "distance_head": )" + head(1) + R"(, "mask_head": )" + head(1) + R"(,
+          "neck": {"dim_in": [386, 2, 2, 2, 2], "num_res_blocks": [0, 2, 2, 2, 0], "dim_out": null, )" +
+      dims + R"(},
+          "ray_head": )" +
+      head(3) + R"(, "distance_head": )" + head(1) + R"(, "mask_head": )" + head(1) + R"(,
           "scale_head": {"dims": [384, 384, 384, 1]}})");
 }
 
@@ -64,7 +67,11 @@ void BM_OmniPointForward(benchmark::State& state) {
   model->forward(in, kNumTokens);  // warm-up
   for (auto _ : state) benchmark::DoNotOptimize(model->forward(in, kNumTokens).points);
 }
-BENCHMARK(BM_OmniPointForward)->DenseRange(0, 3)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_OmniPointForward)
+    ->DenseRange(0, 3)
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The conditioning alone: the token offset for +K+D.
 void BM_ConditionTokens(benchmark::State& state) {

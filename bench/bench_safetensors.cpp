@@ -46,7 +46,8 @@ void BM_ParseSafetensors(benchmark::State& state) {
 
 void read_file(benchmark::State& state, std::optional<at::ScalarType> stored) {
   const auto tensors = vit_like_weights();
-  const std::string path = (std::filesystem::temp_directory_path() / "omnipoint_bench.safetensors").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "omnipoint_bench.safetensors").string();
   omnipoint::io::write_safetensors(path, tensors, {}, stored);
   for (auto _ : state) {
     auto file = omnipoint::io::read_safetensors(path, at::kFloat);
@@ -56,8 +57,12 @@ void read_file(benchmark::State& state, std::optional<at::ScalarType> stored) {
   std::filesystem::remove(path);
 }
 
-void BM_ReadSafetensorsF32(benchmark::State& state) { read_file(state, at::kFloat); }
-void BM_ReadSafetensorsF16ToF32(benchmark::State& state) { read_file(state, at::kHalf); }
+void BM_ReadSafetensorsF32(benchmark::State& state) {
+  read_file(state, at::kFloat);
+}
+void BM_ReadSafetensorsF16ToF32(benchmark::State& state) {
+  read_file(state, at::kHalf);
+}
 
 void BM_EncodeSafetensors(benchmark::State& state) {
   const auto tensors = vit_like_weights();

@@ -19,8 +19,8 @@ void render(benchmark::State& state, const char* spec, SceneKind kind, bool shad
     auto sample = omnipoint::data::synth::synthesize(kind, seed++ % 4, camera, options);
     benchmark::DoNotOptimize(sample.sample.distance.data_ptr());
   }
-  state.counters["pixels/s"] =
-      benchmark::Counter(double(camera.width() * camera.height()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["pixels/s"] = benchmark::Counter(double(camera.width() * camera.height()),
+                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
 constexpr const char* kPanorama = "EQUIRECTANGULAR 512 256";
@@ -28,12 +28,26 @@ constexpr const char* kPinhole = "PINHOLE 640 480 500 500 320 240";
 
 }  // namespace
 
-BENCHMARK_CAPTURE(render, panorama_indoor, kPanorama, SceneKind::kIndoor, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, panorama_outdoor, kPanorama, SceneKind::kOutdoor, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, panorama_object, kPanorama, SceneKind::kObject, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, pinhole_indoor, kPinhole, SceneKind::kIndoor, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, pinhole_outdoor, kPinhole, SceneKind::kOutdoor, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, pinhole_object, kPinhole, SceneKind::kObject, true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(render, pinhole_indoor_no_shadows_no_ao, kPinhole, SceneKind::kIndoor, false)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(render, panorama_indoor, kPanorama, SceneKind::kIndoor, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, panorama_outdoor, kPanorama, SceneKind::kOutdoor, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, panorama_object, kPanorama, SceneKind::kObject, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, pinhole_indoor, kPinhole, SceneKind::kIndoor, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, pinhole_outdoor, kPinhole, SceneKind::kOutdoor, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, pinhole_object, kPinhole, SceneKind::kObject, true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(render, pinhole_indoor_no_shadows_no_ao, kPinhole, SceneKind::kIndoor, false)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 BENCHMARK_MAIN();

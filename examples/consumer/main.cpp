@@ -20,9 +20,9 @@ int main(int argc, char** argv) {
     options.num_tokens = 12;
     const at::Tensor image = at::rand({30, 40, 3});  // (H, W, 3) RGB in [0, 1]
     const omnipoint::Prediction prediction = model.predict(image, options);
-    std::cout << "points " << prediction.points.sizes() << ", valid " << prediction.mask.sum().item<int64_t>()
-              << ", metric scale " << prediction.metric_scale << ", network " << prediction.timing.network_ms
-              << " ms\n";
+    std::cout << "points " << prediction.points.sizes() << ", valid "
+              << prediction.mask.sum().item<int64_t>() << ", metric scale "
+              << prediction.metric_scale << ", network " << prediction.timing.network_ms << " ms\n";
     return prediction.points.size(0) == 30 && prediction.points.size(1) == 40 ? 0 : 1;
   } catch (const std::exception& e) {
     std::cerr << "omnipoint_consumer: " << e.what() << "\n";

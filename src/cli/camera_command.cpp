@@ -27,11 +27,13 @@ struct CameraOptions {
   int64_t height = 0;
 
   void add_to(CLI::App& command) {
-    auto* camera = command.add_option("--camera", spec,
-                                      "Camera: a COLMAP line 'MODEL W H PARAMS...', a JSON object, or a "
-                                      "file (cameras.txt, optionally path#ID; .json)");
-    auto* fov = command.add_option("--fov", fov_deg, "Short form: a centred pinhole with this horizontal FoV "
-                                                     "(degrees); needs --width and --height");
+    auto* camera =
+        command.add_option("--camera", spec,
+                           "Camera: a COLMAP line 'MODEL W H PARAMS...', a JSON object, or a "
+                           "file (cameras.txt, optionally path#ID; .json)");
+    auto* fov = command.add_option("--fov", fov_deg,
+                                   "Short form: a centred pinhole with this horizontal FoV "
+                                   "(degrees); needs --width and --height");
     command.add_option("--width", width, "Image width for --fov")->needs(fov);
     command.add_option("--height", height, "Image height for --fov")->needs(fov);
     camera->excludes(fov);
@@ -39,8 +41,11 @@ struct CameraOptions {
 
   camera::Camera camera() const {
     if (!spec.empty()) return camera::parse_camera(spec);
-    if (fov_deg == 0) throw std::invalid_argument("give the camera with --camera SPEC or --fov DEG --width W --height H");
-    if (width <= 0 || height <= 0) throw std::invalid_argument("--fov needs --width and --height > 0");
+    if (fov_deg == 0)
+      throw std::invalid_argument(
+          "give the camera with --camera SPEC or --fov DEG --width W --height H");
+    if (width <= 0 || height <= 0)
+      throw std::invalid_argument("--fov needs --width and --height > 0");
     return camera::centred_pinhole(fov_deg, width, height);
   }
 };
@@ -51,8 +56,10 @@ void write_ray_png(const std::string& path, const camera::Rays& map) {
 }
 
 void add_rays_command(CLI::App& parent) {
-  auto* command = parent.add_subcommand("rays", "Write the camera's unit rays at pixel centres (H x W x 3 float32 "
-                                                ".npy, zero where invalid)");
+  auto* command =
+      parent.add_subcommand("rays",
+                            "Write the camera's unit rays at pixel centres (H x W x 3 float32 "
+                            ".npy, zero where invalid)");
   auto options = std::make_shared<CameraOptions>();
   auto out = std::make_shared<std::string>();
   auto png = std::make_shared<std::string>();
@@ -68,33 +75,44 @@ void add_rays_command(CLI::App& parent) {
 }
 
 void add_info_command(CLI::App& parent) {
-  auto* command = parent.add_subcommand("info", "Print the camera as JSON: model, size, parameters, fields of view "
-                                                "(degrees) and the share of valid pixels");
+  auto* command =
+      parent.add_subcommand("info",
+                            "Print the camera as JSON: model, size, parameters, fields of view "
+                            "(degrees) and the share of valid pixels");
   auto options = std::make_shared<CameraOptions>();
   options->add_to(*command);
   command->callback([options] {
     const auto camera = options->camera();
     const auto fov = camera::field_of_view(camera);
-    const nlohmann::json info = {
-        {"model", camera.model_name()},
-        {"width", camera.width()},
-        {"height", camera.height()},
-        {"params", camera.params()},
-        {"param_names", camera.model().param_names()},
-        {"spec", camera.to_spec()},
-        {"fov_deg", {{"horizontal", fov.horizontal_deg}, {"vertical", fov.vertical_deg}, {"diagonal", fov.diagonal_deg}}},
-        {"valid_fraction", camera::valid_fraction(camera)}};
+    const nlohmann::json info = {{"model", camera.model_name()},
+                                 {"width", camera.width()},
+                                 {"height", camera.height()},
+                                 {"params", camera.params()},
+                                 {"param_names", camera.model().param_names()},
+                                 {"spec", camera.to_spec()},
+                                 {"fov_deg",
+                                  {{"horizontal", fov.horizontal_deg},
+                                   {"vertical", fov.vertical_deg},
+                                   {"diagonal", fov.diagonal_deg}}},
+                                 {"valid_fraction", camera::valid_fraction(camera)}};
     std::cout << info.dump(2) << "\n";
   });
 }
 
 void add_fit_command(CLI::App& parent) {
-  auto* command = parent.add_subcommand("fit", "Fit a camera of a chosen model to a ray map (H x W x 3 .npy, zero "
-                                               "rays are invalid) and print it as JSON with its COLMAP spec");
+  auto* command =
+      parent.add_subcommand("fit",
+                            "Fit a camera of a chosen model to a ray map (H x W x 3 .npy, zero "
+                            "rays are invalid) and print it as JSON with its COLMAP spec");
   auto rays_path = std::make_shared<std::string>();
   auto model = std::make_shared<std::string>();
-  command->add_option("--rays", *rays_path, "Ray map .npy (H x W x 3), e.g. from `camera rays` or a prediction")->required();
-  command->add_option("--model", *model, "Camera model to fit, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE")->required();
+  command
+      ->add_option("--rays", *rays_path,
+                   "Ray map .npy (H x W x 3), e.g. from `camera rays` or a prediction")
+      ->required();
+  command
+      ->add_option("--model", *model, "Camera model to fit, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE")
+      ->required();
   command->callback([rays_path, model] {
     const auto rays = io::read_npy(*rays_path);
     if (rays.dim() != 3 || rays.size(2) != 3 || !at::isFloatingType(rays.scalar_type())) {
@@ -111,7 +129,8 @@ void add_fit_command(CLI::App& parent) {
 }  // namespace
 
 void add_camera_command(CLI::App& app) {
-  auto* camera = app.add_subcommand("camera", "Camera models: per-pixel rays, camera summaries, fitting a camera to rays");
+  auto* camera = app.add_subcommand(
+      "camera", "Camera models: per-pixel rays, camera summaries, fitting a camera to rays");
   camera->require_subcommand(1);
   add_rays_command(*camera);
   add_info_command(*camera);

@@ -41,7 +41,8 @@ struct EvalOptions {
 
 eval::Predictor model_predictor(const EvalOptions& options) {
   const io::SafetensorsFile file = io::read_safetensors(options.model);
-  const std::string name = options.label.empty() ? fs::path(options.model).stem().string() : options.label;
+  const std::string name =
+      options.label.empty() ? fs::path(options.model).stem().string() : options.label;
   const at::Device device(options.device);
   const auto format = file.metadata.find("format");
   if (format != file.metadata.end() && format->second == "omnipoint")
@@ -51,7 +52,8 @@ eval::Predictor model_predictor(const EvalOptions& options) {
     throw std::invalid_argument("--model " + options.model +
                                 ": expected an OmniPoint or MoGe-2 checkpoint (safetensors with a "
                                 "\"config\" metadata entry), found no config");
-  return eval::moge2_predictor(model::load_moge2(file.tensors, file.metadata), name, options.num_tokens, device);
+  return eval::moge2_predictor(model::load_moge2(file.tensors, file.metadata), name,
+                               options.num_tokens, device);
 }
 
 // DIR/<id>.npy, else DIR/<dataset folder name>/<id>.npy: (H, W, 3) metric points.
@@ -77,17 +79,19 @@ eval::Predictor external_predictor(const EvalOptions& options) {
 eval::Predictor random_model_predictor(const EvalOptions& options) {
   const auto config = model::OmniPointConfig::from_json_text(io::read_file(options.random_model));
   at::manual_seed(options.seed);
-  const std::string name = options.label.empty()
-                               ? fs::path(options.random_model).stem().string() + " (random weights)"
-                               : options.label;
-  return eval::omnipoint_predictor(model::OmniPointModel(config), name, options.num_tokens, at::Device(options.device));
+  const std::string name =
+      options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
+                            : options.label;
+  return eval::omnipoint_predictor(model::OmniPointModel(config), name, options.num_tokens,
+                                   at::Device(options.device));
 }
 
 eval::Predictor make_predictor(const EvalOptions& options) {
-  const int given = !options.model.empty() + !options.random_model.empty() + !options.predictions.empty() +
-                    !options.baseline.empty();
+  const int given = !options.model.empty() + !options.random_model.empty() +
+                    !options.predictions.empty() + !options.baseline.empty();
   if (given != 1)
-    throw std::invalid_argument("give exactly one of --model, --random-model, --predictions, --baseline");
+    throw std::invalid_argument(
+        "give exactly one of --model, --random-model, --predictions, --baseline");
   if (!options.model.empty()) return model_predictor(options);
   if (!options.random_model.empty()) return random_model_predictor(options);
   if (!options.predictions.empty()) return external_predictor(options);
@@ -121,7 +125,8 @@ int64_t sparse_depth_points(const std::vector<std::string>& values) {
 void print_progress(int64_t done, int64_t total, double seconds) {
   const double eta = done > 0 ? seconds / done * (total - done) : 0.0;
   std::fprintf(stderr, "\reval: %lld/%lld samples (%.0f%%), %.1f s elapsed, ETA %.0f s   ",
-               static_cast<long long>(done), static_cast<long long>(total), 100.0 * done / total, seconds, eta);
+               static_cast<long long>(done), static_cast<long long>(total), 100.0 * done / total,
+               seconds, eta);
   if (done == total) std::fputc('\n', stderr);
   std::fflush(stderr);
 }
@@ -136,8 +141,9 @@ void add_eval_command(CLI::App& app) {
       "benchmarks) with MoGe's protocol per camera split (S.FoV / L.FoV / 360°) and condition "
       "mode; writes samples.jsonl, summary.json and table.md to --out");
   cmd->add_option("--model", options->model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
-  cmd->add_option("--random-model", options->random_model,
-                  "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
+  cmd->add_option(
+      "--random-model", options->random_model,
+      "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
   cmd->add_option("--predictions", options->predictions,
                   "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
   cmd->add_option("--baseline", options->baseline,
@@ -145,16 +151,22 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--data", options->data, "dataset folders (sample folders, MoGe benchmark roots)")
       ->required()
       ->expected(1, -1);
-  cmd->add_flag("--intrinsics", options->intrinsics, "also evaluate with the GT camera given (+K, +K+D)");
+  cmd->add_flag("--intrinsics", options->intrinsics,
+                "also evaluate with the GT camera given (+K, +K+D)");
   cmd->add_option("--sparse-depth", options->sparse_depth,
                   "also evaluate with N GT sparse distances (+D, +K+D); N defaults to 1000")
       ->expected(0, 1);
   cmd->add_option("--out", options->out, "output folder")->required();
-  cmd->add_option("--label", options->label, "row label in the table (default: the file or folder name)");
-  cmd->add_option("--num-tokens", options->num_tokens, "ViT tokens per image (0: the image's native count)")
+  cmd->add_option("--label", options->label,
+                  "row label in the table (default: the file or folder name)");
+  cmd->add_option("--num-tokens", options->num_tokens,
+                  "ViT tokens per image (0: the image's native count)")
       ->capture_default_str();
-  cmd->add_option("--seed", options->seed, "seed mixed into the sparse-depth sampling (and of --random-model's weights)")->capture_default_str();
-  cmd->add_option("--constant-distance", options->constant_distance, "metres, for --baseline constant")
+  cmd->add_option("--seed", options->seed,
+                  "seed mixed into the sparse-depth sampling (and of --random-model's weights)")
+      ->capture_default_str();
+  cmd->add_option("--constant-distance", options->constant_distance,
+                  "metres, for --baseline constant")
       ->capture_default_str();
   cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
   cmd->add_option("--device", options->device, "cpu | cuda")->capture_default_str();
@@ -163,7 +175,8 @@ void add_eval_command(CLI::App& app) {
     if (options->device != "cpu" && options->device != "cuda")
       throw std::invalid_argument("--device " + options->device + ": expected cpu or cuda");
     if (options->num_tokens < 0)
-      throw std::invalid_argument("--num-tokens " + std::to_string(options->num_tokens) + ": expected >= 0");
+      throw std::invalid_argument("--num-tokens " + std::to_string(options->num_tokens) +
+                                  ": expected >= 0");
     eval::RunOptions run;
     const bool sparse_depth = sparse->count() > 0;
     run.sparse_depth_points = sparse_depth_points(options->sparse_depth);
@@ -179,14 +192,18 @@ void add_eval_command(CLI::App& app) {
     io::write_file_atomically((out / "samples.jsonl").string(), [&](std::ostream& stream) {
       for (const auto& record : result.records) stream << record << "\n";
     });
-    io::write_file_atomically((out / "summary.json").string(),
-                              [&](std::ostream& stream) { stream << eval::summary_json(result.summary); });
+    io::write_file_atomically((out / "summary.json").string(), [&](std::ostream& stream) {
+      stream << eval::summary_json(result.summary);
+    });
     const std::string table = eval::markdown_table({result.summary});
-    io::write_file_atomically((out / "table.md").string(), [&](std::ostream& stream) { stream << table; });
+    io::write_file_atomically((out / "table.md").string(),
+                              [&](std::ostream& stream) { stream << table; });
     for (const auto& [reason, count] : result.summary.skipped)
-      std::cerr << "eval: skipped " << count << " sample(s): " << reason << " (details in samples.jsonl)\n";
+      std::cerr << "eval: skipped " << count << " sample(s): " << reason
+                << " (details in samples.jsonl)\n";
     for (const auto& mode : result.summary.modes_not_supported)
-      std::cerr << "eval: mode " << mode << " not run: " << predictor.name << " takes no such input\n";
+      std::cerr << "eval: mode " << mode << " not run: " << predictor.name
+                << " takes no such input\n";
     std::cout << table;
   });
 }

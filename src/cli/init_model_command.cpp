@@ -35,7 +35,8 @@ void run_init_model(const InitModelOptions& options) {
   }
   at::manual_seed(options.seed);
   model::OmniPointModel network(config);
-  io::write_safetensors(options.out_path, model::state_dict(*network), model::omnipoint_metadata(config));
+  io::write_safetensors(options.out_path, model::state_dict(*network),
+                        model::omnipoint_metadata(config));
   std::cout << "wrote " << options.out_path << " (random weights, seed " << options.seed << ")\n";
 }
 
@@ -44,8 +45,11 @@ void run_init_model(const InitModelOptions& options) {
 void add_init_model_command(CLI::App& app) {
   auto options = std::make_shared<InitModelOptions>();
   CLI::App* command = app.add_subcommand(
-      "init-model", "Write a randomly initialised OmniPoint checkpoint (.safetensors) from a config JSON");
-  command->add_option("--config", options->config_path, "OmniPoint config JSON (model/omnipoint_config.h)")
+      "init-model",
+      "Write a randomly initialised OmniPoint checkpoint (.safetensors) from a config JSON");
+  command
+      ->add_option("--config", options->config_path,
+                   "OmniPoint config JSON (model/omnipoint_config.h)")
       ->required()
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out_path, "Output .safetensors file")->required();

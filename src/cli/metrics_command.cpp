@@ -32,13 +32,14 @@ std::string shape_of(const at::Tensor& t) {
 at::Tensor read_map(const std::string& path, const std::string& option, int64_t channels) {
   const at::Tensor t = io::read_npy(path);
   if (t.scalar_type() != at::kFloat && t.scalar_type() != at::kDouble) {
-    throw std::invalid_argument(option + " " + path + ": expected a float32 or float64 array, got dtype " +
+    throw std::invalid_argument(option + " " + path +
+                                ": expected a float32 or float64 array, got dtype " +
                                 std::string(c10::toString(t.scalar_type())));
   }
   const bool ok = channels == 0 ? t.dim() == 2 : (t.dim() == 3 && t.size(2) == channels);
   if (!ok) {
-    throw std::invalid_argument(option + " " + path + ": expected shape " + (channels ? "(H, W, 3)" : "(H, W)") +
-                                ", got " + shape_of(t));
+    throw std::invalid_argument(option + " " + path + ": expected shape " +
+                                (channels ? "(H, W, 3)" : "(H, W)") + ", got " + shape_of(t));
   }
   return t;
 }
@@ -46,8 +47,8 @@ at::Tensor read_map(const std::string& path, const std::string& option, int64_t 
 void require_size(const at::Tensor& t, const at::Tensor& reference, const std::string& option,
                   const std::string& path) {
   if (t.size(0) != reference.size(0) || t.size(1) != reference.size(1)) {
-    throw std::invalid_argument(option + " " + path + ": size " + shape_of(t) + " does not match --gt-depth " +
-                                shape_of(reference));
+    throw std::invalid_argument(option + " " + path + ": size " + shape_of(t) +
+                                " does not match --gt-depth " + shape_of(reference));
   }
 }
 
@@ -71,17 +72,21 @@ void run_metrics(const MetricsOptions& o) {
   } else {
     const at::Tensor mask = io::read_npy(o.mask);
     if (mask.scalar_type() != at::kByte && mask.scalar_type() != at::kBool) {
-      throw std::invalid_argument("--mask " + o.mask + ": expected a uint8 or bool array, got dtype " +
+      throw std::invalid_argument("--mask " + o.mask +
+                                  ": expected a uint8 or bool array, got dtype " +
                                   std::string(c10::toString(mask.scalar_type())));
     }
-    if (mask.dim() != 2) throw std::invalid_argument("--mask " + o.mask + ": expected shape (H, W), got " + shape_of(mask));
+    if (mask.dim() != 2)
+      throw std::invalid_argument("--mask " + o.mask + ": expected shape (H, W), got " +
+                                  shape_of(mask));
     require_size(mask, gt.depth, "--mask", o.mask);
     gt.mask = mask != 0;
   }
   gt.is_metric = pred.is_metric = o.metric;
 
   const eval::Metrics metrics = eval::compute_metrics(pred, gt);
-  for (const std::string& warning : metrics.warnings) std::cerr << "omnipoint: warning: " << warning << "\n";
+  for (const std::string& warning : metrics.warnings)
+    std::cerr << "omnipoint: warning: " << warning << "\n";
   nlohmann::ordered_json out = nlohmann::ordered_json::object();
   for (const char* name : eval::kMetricEntries) {
     const auto it = metrics.entries.find(name);
@@ -96,14 +101,18 @@ void run_metrics(const MetricsOptions& o) {
 void add_metrics_command(CLI::App& app) {
   auto options = std::make_shared<MetricsOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "metrics", "Score a depth (and point map) prediction with MoGe's protocol; prints one JSON object");
+      "metrics",
+      "Score a depth (and point map) prediction with MoGe's protocol; prints one JSON object");
   cmd->add_option("--gt-depth", options->gt_depth, "ground-truth depth, H×W .npy")->required();
   cmd->add_option("--pred-depth", options->pred_depth, "predicted depth, H×W .npy")->required();
-  cmd->add_option("--gt-points", options->gt_points, "ground-truth points, H×W×3 .npy (with --pred-points)");
-  cmd->add_option("--pred-points", options->pred_points, "predicted points, H×W×3 .npy (with --gt-points)");
+  cmd->add_option("--gt-points", options->gt_points,
+                  "ground-truth points, H×W×3 .npy (with --pred-points)");
+  cmd->add_option("--pred-points", options->pred_points,
+                  "predicted points, H×W×3 .npy (with --gt-points)");
   cmd->add_option("--mask", options->mask,
                   "valid pixels, H×W uint8/bool .npy (default: finite ground-truth depth > 0)");
-  cmd->add_flag("--metric", options->metric, "ground truth and prediction are metric: add the metric entries");
+  cmd->add_flag("--metric", options->metric,
+                "ground truth and prediction are metric: add the metric entries");
   cmd->callback([options] { run_metrics(*options); });
 }
 

@@ -29,7 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-
 struct PredictCommandOptions {
   std::vector<std::string> inputs;
   std::string camera;
@@ -44,7 +43,8 @@ struct PredictCommandOptions {
 
 std::string lower_extension(const fs::path& path) {
   std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -61,7 +61,8 @@ std::vector<fs::path> expand_inputs(const std::vector<std::string>& inputs) {
       std::vector<fs::path> found;
       for (const auto& entry : fs::directory_iterator(input))
         if (entry.is_regular_file() && is_image_file(entry.path())) found.push_back(entry.path());
-      if (found.empty()) throw std::invalid_argument("input folder " + input + ": no PNG or JPEG images in it");
+      if (found.empty())
+        throw std::invalid_argument("input folder " + input + ": no PNG or JPEG images in it");
       std::sort(found.begin(), found.end());
       images.insert(images.end(), found.begin(), found.end());
     } else {
@@ -87,29 +88,34 @@ std::optional<std::string> sparse_depth_for(const std::string& option, const fs:
 // (<prefix>/bin/omnipoint -> <prefix>/share/omnipoint/), else in the source tree it was built from.
 std::string model_path_or_bundled(const std::string& given) {
   if (!given.empty()) return given;
-  if (const char* environment = std::getenv("OMNIPOINT_MODEL"); environment != nullptr && *environment != '\0')
+  if (const char* environment = std::getenv("OMNIPOINT_MODEL");
+      environment != nullptr && *environment != '\0')
     return environment;
   std::error_code error;
   const fs::path executable = fs::read_symlink("/proc/self/exe", error);
   const fs::path installed = executable.parent_path().parent_path() / OMNIPOINT_INSTALLED_MODEL;
   if (!error && fs::exists(installed)) return installed.string();
   if (fs::exists(OMNIPOINT_SOURCE_MODEL)) return OMNIPOINT_SOURCE_MODEL;
-  throw std::invalid_argument(std::string("no model given and the bundled one is missing (looked for ") +
-                              installed.string() + " and " + OMNIPOINT_SOURCE_MODEL +
-                              "): pass a checkpoint with --model FILE");
+  throw std::invalid_argument(
+      std::string("no model given and the bundled one is missing (looked for ") +
+      installed.string() + " and " + OMNIPOINT_SOURCE_MODEL +
+      "): pass a checkpoint with --model FILE");
 }
 
 void run_predict(const PredictCommandOptions& options) {
-  if (!io::image_io_available()) throw std::runtime_error("this build has no image file I/O (OpenCV)");
+  if (!io::image_io_available())
+    throw std::runtime_error("this build has no image file I/O (OpenCV)");
   const std::vector<fs::path> images = expand_inputs(options.inputs);
   if (images.size() > 1 && !options.sparse_depth.empty() && !fs::is_directory(options.sparse_depth))
-    throw std::invalid_argument("--sparse-depth " + options.sparse_depth +
-                                ": one file for several images; pass a folder with a file per image stem");
+    throw std::invalid_argument(
+        "--sparse-depth " + options.sparse_depth +
+        ": one file for several images; pass a folder with a file per image stem");
   predict::PredictOptions base;
   if (!options.camera.empty()) base.camera = camera::parse_camera(options.camera);
   base.num_tokens = options.num_tokens;
   base.fit_model = options.fit_model == "none" ? "" : options.fit_model;
-  const Model model = Model::load(model_path_or_bundled(options.model_path), at::Device(options.device));
+  const Model model =
+      Model::load(model_path_or_bundled(options.model_path), at::Device(options.device));
 
   std::map<std::string, int> stems;  // output folder names stay unique
   size_t failed = 0;
@@ -119,27 +125,33 @@ void run_predict(const PredictCommandOptions& options) {
     if (const int seen = stems[name]++; seen > 0) name += "_" + std::to_string(seen + 1);
     const fs::path folder = fs::path(options.out_dir) / name;
     const std::string progress =
-        images.size() > 1 ? "[" + std::to_string(i + 1) + "/" + std::to_string(images.size()) + "] " : "";
+        images.size() > 1 ? "[" + std::to_string(i + 1) + "/" + std::to_string(images.size()) + "] "
+                          : "";
     try {
       const auto start = std::chrono::steady_clock::now();
       const at::Tensor image = io::read_image(path.string());
       const double decode_ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count();
       predict::PredictOptions item = base;
       if (const auto sparse = sparse_depth_for(options.sparse_depth, path))
         item.sparse_depth = predict::read_sparse_depth(*sparse, options.lidar_to_camera);
       const Prediction prediction = model.predict(image, item);
-      const double writing_ms = predict::write_prediction_outputs(folder.string(), image, prediction);
+      const double writing_ms =
+          predict::write_prediction_outputs(folder.string(), image, prediction);
       std::cerr << progress << path.string() << " -> " << folder.string() << " ("
-                << static_cast<int>(prediction.mask.sum().item<int64_t>()) << " points, metric scale "
-                << prediction.metric_scale << ", decode " << static_cast<int>(decode_ms) << " ms, network "
-                << static_cast<int>(prediction.timing.network_ms) << " ms, writing " << static_cast<int>(writing_ms)
-                << " ms)\n";
+                << static_cast<int>(prediction.mask.sum().item<int64_t>())
+                << " points, metric scale " << prediction.metric_scale << ", decode "
+                << static_cast<int>(decode_ms) << " ms, network "
+                << static_cast<int>(prediction.timing.network_ms) << " ms, writing "
+                << static_cast<int>(writing_ms) << " ms)\n";
       for (const std::string& note : prediction.notes) std::cerr << "  note: " << note << "\n";
-      if (!prediction.fit_error.empty()) std::cerr << "  note: no camera fitted: " << prediction.fit_error << "\n";
+      if (!prediction.fit_error.empty())
+        std::cerr << "  note: no camera fitted: " << prediction.fit_error << "\n";
     } catch (const std::exception& e) {
       ++failed;
-      std::cerr << "omnipoint: error: " << progress << "skipped " << path.string() << ": " << e.what() << "\n";
+      std::cerr << "omnipoint: error: " << progress << "skipped " << path.string() << ": "
+                << e.what() << "\n";
     }
   }
   if (failed > 0)
@@ -151,29 +163,36 @@ void run_predict(const PredictCommandOptions& options) {
 
 void add_predict_command(CLI::App& app) {
   auto options = std::make_shared<PredictCommandOptions>();
-  CLI::App* command = app.add_subcommand(
-      "predict",
-      "Predict a metric 3D point cloud from each image (PNG/JPEG, 8/16-bit, grey/RGB/RGBA; files or folders); "
-      "writes points.ply, points.glb, distance/depth/rays .npy, mask/depth/depth_vis/preview .png and camera.json "
-      "into OUT/<image name>/");
+  CLI::App* command = app.add_subcommand("predict",
+                                         "Predict a metric 3D point cloud from each image "
+                                         "(PNG/JPEG, 8/16-bit, grey/RGB/RGBA; files or folders); "
+                                         "writes points.ply, points.glb, distance/depth/rays .npy, "
+                                         "mask/depth/depth_vis/preview .png and camera.json "
+                                         "into OUT/<image name>/");
   command->add_option("images", options->inputs, "Image files or folders of images")->required();
-  command->add_option("--camera", options->camera,
-                      "Camera of the images: a COLMAP-style spec \"MODEL W H PARAMS...\", a JSON object, or a "
-                      "cameras.txt / camera.json file (default: the model predicts it)");
-  command->add_option("--sparse-depth", options->sparse_depth,
-                      "Metric sparse depth: depth image (16-bit PNG in mm, .npy or .exr in metres, 0 = missing) or "
-                      "point cloud (.ply, KITTI .bin); a folder holds one file per image stem");
-  command->add_option("--lidar-to-camera", options->lidar_to_camera,
-                      "Camera-from-LiDAR transform of a point cloud: 4x4 (or 3x4) numbers in a text file, or .npy");
-  command->add_option("--model", options->model_path,
-                      "Model checkpoint (.safetensors, OmniPoint or MoGe-2; default: $OMNIPOINT_MODEL, else the "
-                      "bundled models/omnipoint_default.safetensors)");
+  command->add_option(
+      "--camera", options->camera,
+      "Camera of the images: a COLMAP-style spec \"MODEL W H PARAMS...\", a JSON object, or a "
+      "cameras.txt / camera.json file (default: the model predicts it)");
+  command->add_option(
+      "--sparse-depth", options->sparse_depth,
+      "Metric sparse depth: depth image (16-bit PNG in mm, .npy or .exr in metres, 0 = missing) or "
+      "point cloud (.ply, KITTI .bin); a folder holds one file per image stem");
+  command->add_option(
+      "--lidar-to-camera", options->lidar_to_camera,
+      "Camera-from-LiDAR transform of a point cloud: 4x4 (or 3x4) numbers in a text file, or .npy");
+  command->add_option(
+      "--model", options->model_path,
+      "Model checkpoint (.safetensors, OmniPoint or MoGe-2; default: $OMNIPOINT_MODEL, else the "
+      "bundled models/omnipoint_default.safetensors)");
   command->add_option("--out", options->out_dir, "Output folder (default: predictions)");
-  command->add_option("--num-tokens", options->num_tokens, "ViT token budget (default: the model's)")
+  command
+      ->add_option("--num-tokens", options->num_tokens, "ViT token budget (default: the model's)")
       ->check(CLI::PositiveNumber);
-  command->add_option("--fit-model", options->fit_model,
-                      "Camera model fitted to the predicted rays (COLMAP name; auto: the given camera's model or "
-                      "chosen from the field of view; none: no fit)");
+  command->add_option(
+      "--fit-model", options->fit_model,
+      "Camera model fitted to the predicted rays (COLMAP name; auto: the given camera's model or "
+      "chosen from the field of view; none: no fit)");
   command->add_option("--device", options->device, "cpu or cuda (default cpu)");
   command->callback([options] { run_predict(*options); });
 }

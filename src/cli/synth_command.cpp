@@ -40,18 +40,19 @@ data::synth::SynthOptions synth_options(const SynthArgs& args) {
 // The benchmark's render settings are part of its definition; --no-shadows / --no-ao do not
 // apply. Prints one line per sample and the total time.
 void render_benchmark(const SynthArgs& args) {
-  const auto plan = data::synth::plan_benchmark(io::read_file(args.benchmark), args.benchmark, args.set,
-                                                args.per_split);
+  const auto plan = data::synth::plan_benchmark(io::read_file(args.benchmark), args.benchmark,
+                                                args.set, args.per_split);
   auto options = synth_options(args);
   options.render = plan.render;
   const auto start = std::chrono::steady_clock::now();
   for (const auto& sample : plan.samples) {
     const auto folder = (std::filesystem::path(args.out) / sample.folder).string();
-    data::synth::write_synth_sample(folder,
-                                    data::synth::synthesize(sample.scene, sample.seed, sample.camera, options));
+    data::synth::write_synth_sample(
+        folder, data::synth::synthesize(sample.scene, sample.seed, sample.camera, options));
     std::cout << folder << "\n";
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "synth: " << plan.name << " v" << plan.version << " set " << args.set << ": "
             << plan.samples.size() << " samples in " << seconds << " s\n";
 }
@@ -83,10 +84,12 @@ void add_synth_command(CLI::App& app) {
       render_benchmark(*args);
       return;
     }
-    if (args->camera.empty()) throw std::invalid_argument("--camera is required (or --benchmark FILE)");
+    if (args->camera.empty())
+      throw std::invalid_argument("--camera is required (or --benchmark FILE)");
     const auto camera = camera::parse_camera(args->camera);
     const auto kind = data::synth::parse_scene_kind(args->scene);
-    if (args->count < 1) throw std::invalid_argument("--count " + std::to_string(args->count) + ": expected >= 1");
+    if (args->count < 1)
+      throw std::invalid_argument("--count " + std::to_string(args->count) + ": expected >= 1");
     const auto options = synth_options(*args);
     for (int i = 0; i < args->count; ++i) {
       const std::uint64_t seed = args->seed + static_cast<std::uint64_t>(i);

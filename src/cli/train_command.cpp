@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -43,7 +43,8 @@ struct TrainOptions {
 std::string clock_text(double seconds) {
   const auto total = static_cast<long long>(seconds + 0.5);
   char text[32];
-  std::snprintf(text, sizeof(text), "%lld:%02lld:%02lld", total / 3600, total / 60 % 60, total % 60);
+  std::snprintf(text, sizeof(text), "%lld:%02lld:%02lld", total / 3600, total / 60 % 60,
+                total % 60);
   return text;
 }
 
@@ -84,14 +85,17 @@ void run_train(const TrainOptions& options) {
   try {
     config_json = json::parse(io::read_file(options.config_path));
   } catch (const json::exception& e) {
-    throw std::invalid_argument("config " + options.config_path + ": not valid JSON (" + e.what() + ")");
+    throw std::invalid_argument("config " + options.config_path + ": not valid JSON (" + e.what() +
+                                ")");
   }
   const train::TrainConfig config = train::TrainConfig::from_json(config_json);
   if (options.curves_only) {
     const fs::path out_dir(config.output_dir);
     if (!fs::exists(out_dir / "log.jsonl"))
-      throw std::runtime_error("--curves-only: " + (out_dir / "log.jsonl").string() + " does not exist");
-    if (!io::image_io_available()) throw std::runtime_error("--curves-only: this build has no image file I/O (OpenCV)");
+      throw std::runtime_error("--curves-only: " + (out_dir / "log.jsonl").string() +
+                               " does not exist");
+    if (!io::image_io_available())
+      throw std::runtime_error("--curves-only: this build has no image file I/O (OpenCV)");
     write_curves((out_dir / "log.jsonl").string(), (out_dir / "curves.png").string());
     return;
   }
@@ -99,8 +103,9 @@ void run_train(const TrainOptions& options) {
   train::TrainState resumed;
   const bool resume = !options.resume.empty();
   if (resume) resumed = train::read_checkpoint(options.resume);
-  model::OmniPointModel network = resume ? model::load_omnipoint_model(resumed.model, resumed.model_metadata)
-                                         : train::build_model(config);
+  model::OmniPointModel network =
+      resume ? model::load_omnipoint_model(resumed.model, resumed.model_metadata)
+             : train::build_model(config);
   // RANK, WORLD_SIZE, ... from a launcher (docs/TRAINING.md); a single process without them.
   const train::DistributedContext distributed = train::DistributedContext::from_environment();
   train::Trainer trainer(config, network, distributed);
@@ -113,8 +118,10 @@ void run_train(const TrainOptions& options) {
   const std::string curves_path = (out_dir / "curves.png").string();
   if (writer) {
     fs::create_directories(checkpoint_dir);
-    if (resume) truncate_log(log_path, trainer.step());
-    else if (fs::exists(log_path)) fs::remove(log_path);
+    if (resume)
+      truncate_log(log_path, trainer.step());
+    else if (fs::exists(log_path))
+      fs::remove(log_path);
   }
 
   const int64_t total = config.total_steps();
@@ -126,22 +133,30 @@ void run_train(const TrainOptions& options) {
   while (trainer.step() < end) {
     const train::StepRecord record = trainer.train_step();
     images += record.images;
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double rate = images / std::max(elapsed, 1e-9);
-    const double eta = elapsed / static_cast<double>(record.step - first) * static_cast<double>(total - record.step);
+    const double eta = elapsed / static_cast<double>(record.step - first) *
+                       static_cast<double>(total - record.step);
     saved = false;
     if (writer) {
-      append_line(log_path, {{"step", record.step}, {"stage", record.stage}, {"loss", record.loss},
-                             {"terms", record.terms}, {"grad_norm", record.grad_norm}, {"skipped", record.skipped},
-                             {"lr_backbone", record.lr_backbone}, {"lr_heads", record.lr_heads},
-                             {"num_tokens", record.num_tokens}, {"images_per_s", rate}});
+      append_line(log_path, {{"step", record.step},
+                             {"stage", record.stage},
+                             {"loss", record.loss},
+                             {"terms", record.terms},
+                             {"grad_norm", record.grad_norm},
+                             {"skipped", record.skipped},
+                             {"lr_backbone", record.lr_backbone},
+                             {"lr_heads", record.lr_heads},
+                             {"num_tokens", record.num_tokens},
+                             {"images_per_s", rate}});
       if (record.skipped)
         std::fprintf(stderr, "train: step %lld skipped: non-finite loss or gradients\n",
                      static_cast<long long>(record.step));
       if (record.step % config.log_every == 0 || record.step == end)
         std::fprintf(stderr, "train: step %lld/%lld (stage %d) loss %.5g  %.2f img/s  ETA %s\n",
-                     static_cast<long long>(record.step), static_cast<long long>(total), record.stage, record.loss,
-                     rate, clock_text(eta).c_str());
+                     static_cast<long long>(record.step), static_cast<long long>(total),
+                     record.stage, record.loss, rate, clock_text(eta).c_str());
       if (config.checkpoint_every > 0 && record.step % config.checkpoint_every == 0) {
         train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
         write_curves(log_path, curves_path);
@@ -149,7 +164,8 @@ void run_train(const TrainOptions& options) {
       }
     }
     if (config.eval_every > 0 && record.step % config.eval_every == 0) {
-      const std::map<std::string, double> evaluation = trainer.evaluate();  // a collective: on every rank
+      const std::map<std::string, double> evaluation =
+          trainer.evaluate();  // a collective: on every rank
       if (writer) append_line(log_path, {{"step", record.step}, {"eval", evaluation}});
     }
   }
@@ -158,9 +174,11 @@ void run_train(const TrainOptions& options) {
   write_curves(log_path, curves_path);
   if (trainer.done()) {
     const auto metadata = model::omnipoint_metadata(network->config());
-    io::write_safetensors((out_dir / "model.safetensors").string(), trainer.state().model, metadata);
+    io::write_safetensors((out_dir / "model.safetensors").string(), trainer.state().model,
+                          metadata);
     io::write_safetensors((out_dir / "model_ema.safetensors").string(), trainer.ema(), metadata);
-    std::fprintf(stderr, "train: done; weights in %s\n", (out_dir / "model.safetensors").string().c_str());
+    std::fprintf(stderr, "train: done; weights in %s\n",
+                 (out_dir / "model.safetensors").string().c_str());
   }
 }
 
@@ -169,18 +187,25 @@ void run_train(const TrainOptions& options) {
 void add_train_command(CLI::App& app) {
   auto options = std::make_shared<TrainOptions>();
   CLI::App* command = app.add_subcommand(
-      "train", "Train an OmniPoint model from a JSON config (stages, data, losses, optimiser); "
-               "checkpoints and log.jsonl go to the config's output_dir");
+      "train",
+      "Train an OmniPoint model from a JSON config (stages, data, losses, optimiser); "
+      "checkpoints and log.jsonl go to the config's output_dir");
   command->add_option("--config", options->config_path, "Training config (.json)")->required();
-  command->add_option("--resume", options->resume,
-                      "Continue from a checkpoint: a run's output_dir, its checkpoints/ folder or one step folder");
-  command->add_option("--stop-after", options->stop_after,
-                      "Stop after this many steps in total (with a checkpoint), as an interruption would")
+  command->add_option(
+      "--resume", options->resume,
+      "Continue from a checkpoint: a run's output_dir, its checkpoints/ folder or one step folder");
+  command
+      ->add_option(
+          "--stop-after", options->stop_after,
+          "Stop after this many steps in total (with a checkpoint), as an interruption would")
       ->check(CLI::PositiveNumber);
-  command->add_flag("--curves-only", options->curves_only,
-                    "Only redraw the run's curves.png from its log.jsonl (output_dir of the config)");
-  command->add_option("--nproc", options->nproc,
-                      "Data-parallel ranks to start on this machine (Gloo; the config's batch_size is per rank)")
+  command->add_flag(
+      "--curves-only", options->curves_only,
+      "Only redraw the run's curves.png from its log.jsonl (output_dir of the config)");
+  command
+      ->add_option("--nproc", options->nproc,
+                   "Data-parallel ranks to start on this machine (Gloo; the config's batch_size is "
+                   "per rank)")
       ->check(CLI::PositiveNumber);
   command->callback([options] {
     // --nproc N (not already inside a launched job): N copies of this command as the ranks of
@@ -193,8 +218,8 @@ void add_train_command(CLI::App& app) {
       arguments.insert(arguments.end(), {"--stop-after", std::to_string(options->stop_after)});
     const int code = train::launch_local(static_cast<int>(options->nproc), arguments);
     if (code != 0)
-      throw std::runtime_error("train --nproc " + std::to_string(options->nproc) + ": a rank exited with code " +
-                               std::to_string(code));
+      throw std::runtime_error("train --nproc " + std::to_string(options->nproc) +
+                               ": a rank exited with code " + std::to_string(code));
   });
 }
 

@@ -25,19 +25,22 @@ Teacher oracle(const data::synth::Scene& scene, const at::Tensor& rotation, doub
     const auto rays = cam.ray_map(at::kDouble);
     data::synth::RenderOptions options;
     options.shadows = options.ambient_occlusion = false;
-    const auto r = data::synth::render_scene(scene, rays.rays.matmul(rotation.t()), rays.valid, options);
+    const auto r =
+        data::synth::render_scene(scene, rays.rays.matmul(rotation.t()), rays.valid, options);
     return TeacherPrediction{rays.rays.to(at::kFloat), (r.distance * scale).to(at::kFloat), r.mask};
   };
 }
 
 TEST(AnyToPerspective, OracleLabelEqualsTheWideGroundTruthInsideTheFootprint) {
-  const std::vector<camera::Camera> wides{camera::Camera("EQUIRECTANGULAR", 192, 96, {}),
-                                          fisheye_with_fov("DOUBLE_SPHERE", 128, 128, 200, {-0.1, 0.6})};
+  const std::vector<camera::Camera> wides{
+      camera::Camera("EQUIRECTANGULAR", 192, 96, {}),
+      fisheye_with_fov("DOUBLE_SPHERE", 128, 128, 200, {-0.1, 0.6})};
   for (const auto& wide : wides) {
     SCOPED_TRACE(wide.to_spec());
     const auto truth = data::synth::synthesize(SceneKind::kIndoor, 5, wide, test::fast_synth());
     const PerspectiveView view = make_perspective_view(70, 30, 10, 96, 80);
-    const auto result = any_to_perspective(wide, truth.sample.image, view, oracle(truth.scene, view.rotation));
+    const auto result =
+        any_to_perspective(wide, truth.sample.image, view, oracle(truth.scene, view.rotation));
     EXPECT_EQ(result.extracted.image.sizes(), at::IntArrayRef({80, 96, 3}));
     EXPECT_TRUE(result.extracted.valid.all().item<bool>());
     const auto& label = result.label;
@@ -47,13 +50,16 @@ TEST(AnyToPerspective, OracleLabelEqualsTheWideGroundTruthInsideTheFootprint) {
     const auto footprint = rays.valid & in_view.valid & view.camera.inside_image(in_view.pixels) &
                            (rays.rays.matmul(view.rotation).select(-1, 2) > 0);
     EXPECT_EQ((label.mask & footprint.logical_not()).sum().item<int64_t>(), 0);
-    EXPECT_GT(label.mask.sum().item<double>(), 0.9 * (footprint & truth.sample.mask).sum().item<double>());
+    EXPECT_GT(label.mask.sum().item<double>(),
+              0.9 * (footprint & truth.sample.mask).sum().item<double>());
     ASSERT_EQ((label.mask & truth.sample.mask.logical_not()).sum().item<int64_t>(), 0);
-    const auto d = label.distance.masked_select(label.mask), g = truth.sample.distance.masked_select(label.mask);
+    const auto d = label.distance.masked_select(label.mask),
+               g = truth.sample.distance.masked_select(label.mask);
     // Bilinear between view pixels that agree within 5 %: 2 % at worst, 0.5 % for 99 %.
     EXPECT_LE(((d - g).abs() / g).max().item<double>(), 0.02);
     EXPECT_LE(((d - g).abs() / g).to(at::kDouble).quantile(0.99).item<double>(), 0.005);
-    EXPECT_EQ(label.distance.masked_select(label.mask.logical_not()).abs().sum().item<double>(), 0.0);
+    EXPECT_EQ(label.distance.masked_select(label.mask.logical_not()).abs().sum().item<double>(),
+              0.0);
   }
 }
 
@@ -64,7 +70,8 @@ TEST(AnyToPerspective, ExtractedViewIsTheRenderedView) {
   const auto extracted = extract_view(wide, truth.sample.image, view);
   // The renderer's own pinhole view through the same rotation.
   const auto rays = view.camera.ray_map(at::kDouble);
-  const auto rendered = data::synth::render_scene(truth.scene, rays.rays.matmul(view.rotation.t()), rays.valid);
+  const auto rendered =
+      data::synth::render_scene(truth.scene, rays.rays.matmul(view.rotation.t()), rays.valid);
   const auto error = (extracted.image - rendered.image.to(at::kFloat) / 255.0).abs().mean();
   EXPECT_LT(error.item<double>(), 0.05);
 }
@@ -95,7 +102,8 @@ TEST(AnyToPerspective, MultiViewMergeRecoversOneScaleFromInconsistentViews) {
     // Find the view by matching its image (the extraction is deterministic).
     for (const auto& view : tiling_views(wide, options)) {
       if (at::equal(extract_view(wide, truth.sample.image, view).image, image)) {
-        const double scale = std::exp(at::rand({1}, generator, at::kDouble).item<double>() * 2.0 - 1.0);
+        const double scale =
+            std::exp(at::rand({1}, generator, at::kDouble).item<double>() * 2.0 - 1.0);
         return oracle(truth.scene, view.rotation, scale)(image, cam);
       }
     }
@@ -108,7 +116,8 @@ TEST(AnyToPerspective, MultiViewMergeRecoversOneScaleFromInconsistentViews) {
   // to interpolate across them), hence 90 % rather than all.
   EXPECT_GT(both.sum().item<double>(), 0.9 * truth.sample.mask.sum().item<double>());
   EXPECT_EQ((merged.mask & truth.sample.mask.logical_not()).sum().item<int64_t>(), 0);
-  const auto ratio = merged.distance.masked_select(both) / truth.sample.distance.masked_select(both);
+  const auto ratio =
+      merged.distance.masked_select(both) / truth.sample.distance.masked_select(both);
   const double median = ratio.median().item<double>();
   // Each view's own interpolation error (<= 2 %, see above) plus blending of neighbours.
   EXPECT_LE((ratio / median - 1).abs().max().item<double>(), 0.03);
@@ -119,9 +128,11 @@ TEST(AnyToPerspective, BadInputsAreRejected) {
   const camera::Camera wide("EQUIRECTANGULAR", 32, 16, {});
   const auto view = make_perspective_view(60, 0, 0, 8, 8);
   EXPECT_THROW(extract_view(wide, at::zeros({16, 31, 3}), view), std::invalid_argument);
-  EXPECT_THROW(extract_view(wide, at::zeros({16, 32, 3}), view, at::ones({16, 32})), std::invalid_argument);
-  EXPECT_THROW(stitch_view(wide, view, TeacherPrediction{{}, at::ones({7, 8}), at::ones({7, 8}, at::kBool)}),
+  EXPECT_THROW(extract_view(wide, at::zeros({16, 32, 3}), view, at::ones({16, 32})),
                std::invalid_argument);
+  EXPECT_THROW(
+      stitch_view(wide, view, TeacherPrediction{{}, at::ones({7, 8}), at::ones({7, 8}, at::kBool)}),
+      std::invalid_argument);
   EXPECT_THROW(make_perspective_view(180, 0, 0, 8, 8), std::invalid_argument);
   MultiViewOptions bad;
   bad.fov_deg = 0;

@@ -38,8 +38,8 @@ TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
   const camera::Camera pano("EQUIRECTANGULAR", 256, 128, {});
   const auto source = data::synth::synthesize(SceneKind::kIndoor, 7, pinhole, test::fast_synth());
   const auto truth = data::synth::synthesize(SceneKind::kIndoor, 7, pano, test::fast_synth());
-  const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance, source.sample.mask,
-                                      {pano, {}, {}});
+  const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance,
+                                      source.sample.mask, {pano, {}, {}});
   EXPECT_EQ(out.camera, pano);
   EXPECT_TRUE(at::allclose(out.rays, pano.ray_map(at::kFloat).rays));
 
@@ -48,18 +48,23 @@ TEST(PerspectiveToAny, PinholeToPanoramaMatchesTheRenderersPanorama) {
   const auto visible = seen.valid & pinhole.inside_image(seen.pixels);
   EXPECT_EQ((out.mask & visible.logical_not()).sum().item<int64_t>(), 0);
   // Almost everything it saw that has geometry is labelled.
-  const auto labelled_share = (out.mask.sum().item<double>() / (visible & truth.sample.mask).sum().item<double>());
+  const auto labelled_share =
+      (out.mask.sum().item<double>() / (visible & truth.sample.mask).sum().item<double>());
   EXPECT_GT(labelled_share, 0.85);
 
   // Every valid pixel agrees with the renderer.
   ASSERT_TRUE((out.mask & truth.sample.mask.logical_not()).sum().item<int64_t>() == 0);
-  const auto d = out.distance.masked_select(out.mask), g = truth.sample.distance.masked_select(out.mask);
+  const auto d = out.distance.masked_select(out.mask),
+             g = truth.sample.distance.masked_select(out.mask);
   EXPECT_LE(((d - g).abs() / g).max().item<double>(), kRelativeTolerance);
   EXPECT_LE(quantile_of((d - g).abs() / g, 0.99), kTypicalTolerance);
   // Colours come from the same surface (textures differ only below the pixel scale).
-  const auto colour_error = (out.image - truth.sample.image).abs().mean(-1).masked_select(out.mask).mean();
+  const auto colour_error =
+      (out.image - truth.sample.image).abs().mean(-1).masked_select(out.mask).mean();
   EXPECT_LT(colour_error.item<double>(), 0.06);
-  EXPECT_EQ(out.distance.masked_select((out.mask | out.filled).logical_not()).abs().sum().item<double>(), 0.0);
+  EXPECT_EQ(
+      out.distance.masked_select((out.mask | out.filled).logical_not()).abs().sum().item<double>(),
+      0.0);
   EXPECT_EQ((out.mask & out.filled).sum().item<int64_t>(), 0);
 }
 
@@ -68,14 +73,16 @@ TEST(PerspectiveToAny, RotatedFisheyeMatchesTheRendererThroughTheSameRotation) {
   const auto fisheye = fisheye_with_fov("DOUBLE_SPHERE", 128, 128, 200, {-0.1, 0.6});
   const auto source = data::synth::synthesize(SceneKind::kOutdoor, 3, pinhole, test::fast_synth());
   const at::Tensor rotation = rotation_from_angles(20, -10, 5);
-  const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance, source.sample.mask,
-                                      {fisheye, rotation, {}});
+  const auto out = perspective_to_any(pinhole, source.sample.image, source.sample.distance,
+                                      source.sample.mask, {fisheye, rotation, {}});
   // The renderer, given the fisheye's rays turned into the source frame.
   const auto rays = fisheye.ray_map(at::kDouble);
-  const auto truth = data::synth::render_scene(source.scene, rays.rays.matmul(rotation.t()), rays.valid);
+  const auto truth =
+      data::synth::render_scene(source.scene, rays.rays.matmul(rotation.t()), rays.valid);
   ASSERT_GT(out.mask.sum().item<int64_t>(), 1000);
   ASSERT_EQ((out.mask & truth.mask.logical_not()).sum().item<int64_t>(), 0);
-  const auto d = out.distance.masked_select(out.mask).to(at::kDouble), g = truth.distance.masked_select(out.mask);
+  const auto d = out.distance.masked_select(out.mask).to(at::kDouble),
+             g = truth.distance.masked_select(out.mask);
   EXPECT_LE(((d - g).abs() / g).max().item<double>(), kRelativeTolerance);
   EXPECT_LE(quantile_of((d - g).abs() / g, 0.99), kTypicalTolerance);
 }
@@ -104,8 +111,8 @@ TEST(PerspectiveToAny, ForegroundBoxNeverLetsTheWallThrough) {
   const at::Tensor centre = at::tensor({0.8, 0.0, 0.0}, at::kDouble);
   P2AOptions options;
   options.supersample = 1;  // provoke gaps
-  const auto out = perspective_to_any(source_camera, image, source.distance.to(at::kFloat), source.mask,
-                                      {target_camera, {}, centre}, options);
+  const auto out = perspective_to_any(source_camera, image, source.distance.to(at::kFloat),
+                                      source.mask, {target_camera, {}, centre}, options);
   // Ground truth from the moved camera (level pose: camera x is world x).
   Scene moved = scene;
   moved.pose = make_pose({0.8, 0, 1.5}, 0, 0, 0);
@@ -115,15 +122,18 @@ TEST(PerspectiveToAny, ForegroundBoxNeverLetsTheWallThrough) {
   ASSERT_GT((out.mask & box_pixels).sum().item<int64_t>(), 500);
   // Where the truth is the box, a valid pixel is never the wall.
   EXPECT_EQ((out.mask & box_pixels & (out.distance > 4.0)).sum().item<int64_t>(), 0);
-  const auto d = out.distance.masked_select(out.mask).to(at::kDouble), g = truth.distance.masked_select(out.mask);
+  const auto d = out.distance.masked_select(out.mask).to(at::kDouble),
+             g = truth.distance.masked_select(out.mask);
   EXPECT_LE(((d - g).abs() / g).max().item<double>(), 0.02);
   // The wall behind the box that only the moved camera sees (disoccluded) is not labelled.
   const auto wall_pixels = truth.mask & (truth.distance > 4.0);
   const auto back = centre.view({1, 1, 3}) + target_rays.rays * truth.distance.unsqueeze(-1);
   const auto in_source = source_camera.project(back);
-  const auto seen_distance = source.distance.index({in_source.pixels.select(-1, 1).floor().clamp(0, 89).to(at::kLong),
-                                                    in_source.pixels.select(-1, 0).floor().clamp(0, 119).to(at::kLong)});
-  const auto hidden_wall = wall_pixels & (seen_distance < 4.0) & source_camera.inside_image(in_source.pixels);
+  const auto seen_distance =
+      source.distance.index({in_source.pixels.select(-1, 1).floor().clamp(0, 89).to(at::kLong),
+                             in_source.pixels.select(-1, 0).floor().clamp(0, 119).to(at::kLong)});
+  const auto hidden_wall =
+      wall_pixels & (seen_distance < 4.0) & source_camera.inside_image(in_source.pixels);
   ASSERT_GT(hidden_wall.sum().item<int64_t>(), 100);
   EXPECT_EQ((out.mask & hidden_wall).sum().item<int64_t>(), 0);
 }
@@ -133,10 +143,14 @@ TEST(PerspectiveToAny, BadInputsAreRejected) {
   const VirtualView target{camera::Camera("EQUIRECTANGULAR", 16, 8, {}), {}, {}};
   const auto image = at::zeros({6, 8, 3}), distance = at::ones({6, 8});
   const auto mask = at::ones({6, 8}, at::kBool);
-  EXPECT_THROW(perspective_to_any(cam, at::zeros({6, 7, 3}), distance, mask, target), std::invalid_argument);
-  EXPECT_THROW(perspective_to_any(cam, image, distance, mask.to(at::kFloat), target), std::invalid_argument);
-  EXPECT_THROW(perspective_to_any(cam, image, at::ones({8, 6}), mask, target), std::invalid_argument);
-  EXPECT_THROW(perspective_to_any(cam, image, distance, mask, {target.camera, at::eye(4), {}}), std::invalid_argument);
+  EXPECT_THROW(perspective_to_any(cam, at::zeros({6, 7, 3}), distance, mask, target),
+               std::invalid_argument);
+  EXPECT_THROW(perspective_to_any(cam, image, distance, mask.to(at::kFloat), target),
+               std::invalid_argument);
+  EXPECT_THROW(perspective_to_any(cam, image, at::ones({8, 6}), mask, target),
+               std::invalid_argument);
+  EXPECT_THROW(perspective_to_any(cam, image, distance, mask, {target.camera, at::eye(4), {}}),
+               std::invalid_argument);
   P2AOptions bad;
   bad.supersample = -1;
   EXPECT_THROW(perspective_to_any(cam, image, distance, mask, target, bad), std::invalid_argument);
@@ -154,18 +168,21 @@ TEST(VirtualCameras, SampledFisheyesSpanTheirFieldOfViewAndEveryKindOccurs) {
     models.insert(view.camera.model_name());
     if (view.camera.model_name() == "EQUIRECTANGULAR" && !view.camera.params().empty()) ++cropped;
     // A proper rotation.
-    EXPECT_TRUE(at::allclose(view.rotation.matmul(view.rotation.t()), at::eye(3, at::kDouble), 1e-12, 1e-12));
+    EXPECT_TRUE(at::allclose(view.rotation.matmul(view.rotation.t()), at::eye(3, at::kDouble),
+                             1e-12, 1e-12));
   }
   EXPECT_EQ(models.size(), 5u);
   EXPECT_GT(cropped, 0);
   for (const char* model : {"OPENCV_FISHEYE", "MEI", "EUCM", "DOUBLE_SPHERE"}) {
-    const std::vector<double> shape = std::string(model) == "OPENCV_FISHEYE" ? std::vector<double>{0.01, 0, 0, 0}
-                                      : std::string(model) == "MEI"         ? std::vector<double>{1.0, 0.01, 0, 0, 0}
-                                      : std::string(model) == "EUCM"        ? std::vector<double>{0.6, 1.0}
-                                                                            : std::vector<double>{-0.1, 0.6};
+    const std::vector<double> shape =
+        std::string(model) == "OPENCV_FISHEYE" ? std::vector<double>{0.01, 0, 0, 0}
+        : std::string(model) == "MEI"          ? std::vector<double>{1.0, 0.01, 0, 0, 0}
+        : std::string(model) == "EUCM"         ? std::vector<double>{0.6, 1.0}
+                                               : std::vector<double>{-0.1, 0.6};
     const auto cam = fisheye_with_fov(model, 100, 80, 220, shape);
     const double half = 110 * M_PI / 180;
-    const auto rim = cam.project(at::tensor({std::sin(half), 0.0, std::cos(half)}, at::kDouble).view({1, 3}));
+    const auto rim =
+        cam.project(at::tensor({std::sin(half), 0.0, std::cos(half)}, at::kDouble).view({1, 3}));
     EXPECT_TRUE(rim.valid.item<bool>()) << model;
     EXPECT_NEAR(rim.pixels[0][0].item<double>(), 50 + 40, 1e-6) << model;
   }

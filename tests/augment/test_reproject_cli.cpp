@@ -25,14 +25,20 @@ class ReprojectCli : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("omnipoint_reproject_cli_" + std::to_string(::getpid()));
     fs::create_directories(dir_);
     // A pinhole sample and a panorama sample of the same scene.
-    ASSERT_EQ(run("synth --camera 'PINHOLE 96 72 60 60 48 36' --scene indoor --seed 4 --out " + path("pin") +
-                  " --no-shadows --no-ao").status, 0);
-    ASSERT_EQ(run("synth --camera 'EQUIRECTANGULAR 384 192' --scene indoor --seed 4 --out " + path("pano") +
-                  " --no-shadows --no-ao").status, 0);
+    ASSERT_EQ(run("synth --camera 'PINHOLE 96 72 60 60 48 36' --scene indoor --seed 4 --out " +
+                  path("pin") + " --no-shadows --no-ao")
+                  .status,
+              0);
+    ASSERT_EQ(run("synth --camera 'EQUIRECTANGULAR 384 192' --scene indoor --seed 4 --out " +
+                  path("pano") + " --no-shadows --no-ao")
+                  .status,
+              0);
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
-  static test::CliRun run(const std::string& arguments) { return test::run_omnipoint(arguments, dir_ / "cli"); }
+  static test::CliRun run(const std::string& arguments) {
+    return test::run_omnipoint(arguments, dir_ / "cli");
+  }
   static std::string path(const std::string& name) { return (dir_ / name).string(); }
 
   void expect_failure(const std::string& arguments, const std::string& mention) {
@@ -57,7 +63,10 @@ class ReprojectCli : public ::testing::Test {
 fs::path ReprojectCli::dir_;
 
 TEST_F(ReprojectCli, PinholeSampleToPanoramaAgreesWithThePanoramaSample) {
-  ASSERT_EQ(run("reproject --input " + path("pin/000004") + " --camera 'EQUIRECTANGULAR 384 192' --out " + path("p2a")).status, 0);
+  ASSERT_EQ(run("reproject --input " + path("pin/000004") +
+                " --camera 'EQUIRECTANGULAR 384 192' --out " + path("p2a"))
+                .status,
+            0);
   const data::Sample out = data::read_sample(path("p2a"));
   const data::Sample truth = data::read_sample(path("pano/000004"));
   EXPECT_EQ(out.camera, truth.camera);
@@ -75,8 +84,10 @@ TEST_F(ReprojectCli, PinholeSampleToPanoramaAgreesWithThePanoramaSample) {
 TEST_F(ReprojectCli, PerspectiveViewOfAPanoramaAgreesWithThePinholeSample) {
   // The pinhole sample looks along the panorama's (yaw, pitch) = (0, 0): same pose.
   const double fov = 2 * std::atan(48.0 / 60.0) * 180 / M_PI;
-  ASSERT_EQ(run("reproject --input " + path("pano/000004") + " --perspective " + std::to_string(fov) +
-                " --width 96 --height 72 --out " + path("view")).status, 0);
+  ASSERT_EQ(run("reproject --input " + path("pano/000004") + " --perspective " +
+                std::to_string(fov) + " --width 96 --height 72 --out " + path("view"))
+                .status,
+            0);
   const data::Sample out = data::read_sample(path("view"));
   const data::Sample truth = data::read_sample(path("pin/000004"));
   EXPECT_EQ(out.camera.model_name(), "PINHOLE");
@@ -90,13 +101,17 @@ TEST_F(ReprojectCli, PerspectiveViewOfAPanoramaAgreesWithThePinholeSample) {
 
 TEST_F(ReprojectCli, BadInputsFailWithOneLine) {
   const std::string out = " --out " + path("bad");
-  expect_failure("reproject --input " + path("missing") + " --camera 'EQUIRECTANGULAR 64 32'" + out, "missing");
+  expect_failure("reproject --input " + path("missing") + " --camera 'EQUIRECTANGULAR 64 32'" + out,
+                 "missing");
   expect_failure("reproject --input " + path("pin/000004") + " --camera 'NOPE 1 2'" + out, "NOPE");
   expect_failure("reproject --input " + path("pin/000004") + out, "--camera");
-  expect_failure("reproject --input " + path("pano/000004") + " --perspective 190" + out, "--perspective");
-  expect_failure("reproject --input " + path("pin/000004") + " --camera 'EQUIRECTANGULAR 64 32' --perspective 60" + out,
+  expect_failure("reproject --input " + path("pano/000004") + " --perspective 190" + out,
+                 "--perspective");
+  expect_failure("reproject --input " + path("pin/000004") +
+                     " --camera 'EQUIRECTANGULAR 64 32' --perspective 60" + out,
                  "excludes");
-  expect_failure("reproject --input " + path("pin/000004") + " --camera 'EQUIRECTANGULAR 64 32' --supersample 9" + out,
+  expect_failure("reproject --input " + path("pin/000004") +
+                     " --camera 'EQUIRECTANGULAR 64 32' --supersample 9" + out,
                  "supersample");
   EXPECT_EQ(run("reproject --help").status, 0);
 }

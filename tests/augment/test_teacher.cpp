@@ -21,7 +21,8 @@ namespace {
 // A tiny random OmniPoint network (tests/support/tiny_omnipoint.h).
 model::OmniPointModel tiny_model() {
   at::manual_seed(7);
-  model::OmniPointModel net(model::OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json()));
+  model::OmniPointModel net(
+      model::OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json()));
   net->eval();
   return net;
 }
@@ -43,7 +44,8 @@ TEST(Teacher, OmniPointTeacherReturnsTheModelsMetricDistanceAlongItsRays) {
 
   // A2P with it: the label lives inside the view's footprint only.
   const camera::Camera wide("EQUIRECTANGULAR", 64, 32, {});
-  const auto result = any_to_perspective(wide, at::rand({32, 64, 3}), view, omnipoint_teacher(net, 12));
+  const auto result =
+      any_to_perspective(wide, at::rand({32, 64, 3}), view, omnipoint_teacher(net, 12));
   EXPECT_EQ(result.label.distance.sizes(), at::IntArrayRef({32, 64}));
   EXPECT_TRUE(at::isfinite(result.label.distance).all().item<bool>());
   EXPECT_LT(result.label.mask.sum().item<int64_t>(), 64 * 32 / 4);
@@ -61,13 +63,17 @@ TEST(Teacher, MoGe2TeacherReturnsInferDistancesWhereItsMaskHolds) {
     at::manual_seed(seed);
     model::MoGe2Model net(model::MoGe2Config::from_json(meta["model_config"]));
     net->eval();
-    const auto reference = model::infer(net, image.permute({2, 0, 1}).unsqueeze(0).contiguous(), 12);
-    const at::Tensor confident = reference.mask.squeeze(0) & at::isfinite(reference.distance.squeeze(0));
+    const auto reference =
+        model::infer(net, image.permute({2, 0, 1}).unsqueeze(0).contiguous(), 12);
+    const at::Tensor confident =
+        reference.mask.squeeze(0) & at::isfinite(reference.distance.squeeze(0));
     if (!confident.any().item<bool>()) continue;
     const TeacherPrediction prediction = moge2_teacher(net, 12)(image, view.camera);
     EXPECT_TRUE(at::equal(prediction.confident, confident));
-    EXPECT_TRUE(at::allclose(prediction.distance.masked_select(confident), reference.distance.squeeze(0).masked_select(confident)));
-    EXPECT_EQ(prediction.distance.masked_select(confident.logical_not()).abs().sum().item<double>(), 0.0);
+    EXPECT_TRUE(at::allclose(prediction.distance.masked_select(confident),
+                             reference.distance.squeeze(0).masked_select(confident)));
+    EXPECT_EQ(prediction.distance.masked_select(confident.logical_not()).abs().sum().item<double>(),
+              0.0);
     EXPECT_TRUE(at::isfinite(prediction.distance).all().item<bool>());
     return;
   }

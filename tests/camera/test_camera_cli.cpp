@@ -33,7 +33,8 @@ class CameraCli : public ::testing::Test {
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
   // A failure: non-zero exit, one line on stderr naming the problem, no output file.
-  void expect_failure(const std::string& arguments, const std::string& mention, const std::string& output = "") {
+  void expect_failure(const std::string& arguments, const std::string& mention,
+                      const std::string& output = "") {
     const auto result = run(arguments);
     EXPECT_NE(result.status, 0) << arguments;
     EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
@@ -67,17 +68,20 @@ TEST_F(CameraCli, EquirectangularRaysMatchTheFormula) {
   for (int j = 0; j < 32; j += 3) {
     for (int i = 0; i < 64; i += 5) {
       const double theta = 2 * M_PI * ((i + 0.5) / 64 - 0.5), phi = M_PI * (0.5 - (j + 0.5) / 32);
-      const double expected[3] = {std::cos(phi) * std::sin(theta), -std::sin(phi), std::cos(phi) * std::cos(theta)};
-      for (int c = 0; c < 3; ++c) max_error = std::max(max_error, std::abs(rays[j][i][c].item<double>() - expected[c]));
+      const double expected[3] = {std::cos(phi) * std::sin(theta), -std::sin(phi),
+                                  std::cos(phi) * std::cos(theta)};
+      for (int c = 0; c < 3; ++c)
+        max_error = std::max(max_error, std::abs(rays[j][i][c].item<double>() - expected[c]));
     }
   }
   EXPECT_LE(max_error, 1e-6);
 }
 
 TEST_F(CameraCli, RaysFromAFileAndThePngPicture) {
-  std::ofstream(path("cameras.txt")) << "# cameras\n1 PINHOLE 32 24 30 30 16 12\n2 FOV 40 30 20 20 20 15 0.9\n";
-  const auto result = run("camera rays --camera " + path("cameras.txt") + "#2 --out " + path("r.npy") +
-                          " --png " + path("r.png"));
+  std::ofstream(path("cameras.txt"))
+      << "# cameras\n1 PINHOLE 32 24 30 30 16 12\n2 FOV 40 30 20 20 20 15 0.9\n";
+  const auto result = run("camera rays --camera " + path("cameras.txt") + "#2 --out " +
+                          path("r.npy") + " --png " + path("r.png"));
   ASSERT_EQ(result.status, 0) << result.err;
   EXPECT_EQ(io::read_npy(path("r.npy")).sizes(), (std::vector<int64_t>{30, 40, 3}));
 #ifdef OMNIPOINT_WITH_OPENCV
@@ -92,7 +96,8 @@ TEST_F(CameraCli, InfoPrintsJson) {
   EXPECT_EQ(info["model"], "PINHOLE");
   EXPECT_EQ(info["width"], 64);
   EXPECT_NEAR(info["fov_deg"]["horizontal"].get<double>(), 90, 1e-6);
-  EXPECT_NEAR(info["fov_deg"]["vertical"].get<double>(), 2 * std::atan(24.0 / 32) * 180 / M_PI, 1e-6);
+  EXPECT_NEAR(info["fov_deg"]["vertical"].get<double>(), 2 * std::atan(24.0 / 32) * 180 / M_PI,
+              1e-6);
   EXPECT_EQ(info["valid_fraction"], 1.0);
 
   const auto pano = nlohmann::json::parse(run("camera info --camera 'EQUIRECTANGULAR 64 32'").out);
@@ -116,7 +121,8 @@ TEST_F(CameraCli, FitRecoversTheCameraOfARayMap) {
 }
 
 TEST_F(CameraCli, HelpEverywhere) {
-  for (const std::string command : {"--help", "camera --help", "camera rays --help", "camera info --help", "camera fit --help"}) {
+  for (const std::string command : {"--help", "camera --help", "camera rays --help",
+                                    "camera info --help", "camera fit --help"}) {
     const auto result = run(command);
     EXPECT_EQ(result.status, 0) << command;
     EXPECT_NE(result.out.find("Usage"), std::string::npos) << command;
@@ -125,11 +131,17 @@ TEST_F(CameraCli, HelpEverywhere) {
 
 TEST_F(CameraCli, BadInputFailsCleanly) {
   const auto out = path("rays.npy");
-  expect_failure("camera rays --camera 'PINHOLE 64 48 0 50 32 24' --out " + out, "focal length fx must be > 0", out);
-  expect_failure("camera rays --camera 'PINHOL 64 48 50 50 32 24' --out " + out, "unknown camera model", out);
-  expect_failure("camera rays --camera 'PINHOLE 64 48 50 50' --out " + out, "expects 4 parameters", out);
-  expect_failure("camera rays --camera " + path("missing.txt") + " --out " + out, "missing.txt", out);
-  expect_failure("camera rays --camera 'PINHOLE 64 48 50 50 32 24' --out " + path("no/such/dir/r.npy"), "does not exist");
+  expect_failure("camera rays --camera 'PINHOLE 64 48 0 50 32 24' --out " + out,
+                 "focal length fx must be > 0", out);
+  expect_failure("camera rays --camera 'PINHOL 64 48 50 50 32 24' --out " + out,
+                 "unknown camera model", out);
+  expect_failure("camera rays --camera 'PINHOLE 64 48 50 50' --out " + out, "expects 4 parameters",
+                 out);
+  expect_failure("camera rays --camera " + path("missing.txt") + " --out " + out, "missing.txt",
+                 out);
+  expect_failure(
+      "camera rays --camera 'PINHOLE 64 48 50 50 32 24' --out " + path("no/such/dir/r.npy"),
+      "does not exist");
   expect_failure("camera rays --camera 'PINHOLE 64 48 50 50 32 24'", "--out");
   expect_failure("camera rays --fov 200 --width 64 --height 48 --out " + out, "--fov", out);
   expect_failure("camera info", "--camera");

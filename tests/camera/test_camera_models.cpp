@@ -78,14 +78,15 @@ void check_unit_rays_and_invalid_zero(const Camera& camera, at::ScalarType dtype
         << "invalid rays must be zero";
   }
   // Projection of odd points: the origin, behind the camera, far off-axis.
-  const auto points = at::tensor({0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 1.0, 2.0, -3.0, 1e6, 0.0, 1e-9,
-                                  0.3, -0.2, 1.0},
-                                 options)
-                          .view({-1, 3});
+  const auto points =
+      at::tensor({0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 1.0, 2.0, -3.0, 1e6, 0.0, 1e-9, 0.3, -0.2, 1.0},
+                 options)
+          .view({-1, 3});
   const auto projected = camera.project(points);
   ASSERT_FALSE(at::isnan(projected.pixels).any().item<bool>());
   EXPECT_FALSE(projected.valid[0].item<bool>()) << "the origin has no direction";
-  const auto invalid_pixels = at::where(projected.valid.unsqueeze(-1), at::zeros_like(projected.pixels), projected.pixels);
+  const auto invalid_pixels =
+      at::where(projected.valid.unsqueeze(-1), at::zeros_like(projected.pixels), projected.pixels);
   EXPECT_EQ(invalid_pixels.abs().max().item<double>(), 0.0) << "invalid pixels must be zero";
 }
 
@@ -109,7 +110,8 @@ TEST_P(CameraModelTest, SpecJsonAndBatchShapes) {
   EXPECT_EQ(parse_camera(original.to_json()), original);
 
   const auto& cam = original;
-  const auto pixels = cam.pixel_centres(at::kDouble).narrow(0, 0, 4).narrow(1, 0, 6).reshape({2, 2, 6, 2});
+  const auto pixels =
+      cam.pixel_centres(at::kDouble).narrow(0, 0, 4).narrow(1, 0, 6).reshape({2, 2, 6, 2});
   const auto rays = cam.unproject(pixels);
   EXPECT_EQ(rays.rays.sizes(), (std::vector<int64_t>{2, 2, 6, 3}));
   EXPECT_EQ(rays.valid.sizes(), (std::vector<int64_t>{2, 2, 6}));

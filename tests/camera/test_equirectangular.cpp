@@ -9,8 +9,12 @@
 namespace omnipoint::camera {
 namespace {
 
-at::Tensor pixel(double x, double y) { return at::tensor({x, y}, at::kDouble); }
-at::Tensor point(double x, double y, double z) { return at::tensor({x, y, z}, at::kDouble); }
+at::Tensor pixel(double x, double y) {
+  return at::tensor({x, y}, at::kDouble);
+}
+at::Tensor point(double x, double y, double z) {
+  return at::tensor({x, y, z}, at::kDouble);
+}
 
 void expect_ray(const Rays& rays, double x, double y, double z) {
   ASSERT_TRUE(rays.valid.item<bool>());
@@ -28,12 +32,13 @@ void expect_pixel(const Pixels& pixels, double x, double y) {
 const Camera kPanorama = make_camera("EQUIRECTANGULAR", 2048, 1024, {});
 
 TEST(Equirectangular, AxesFollowTheConvention) {
-  expect_ray(kPanorama.unproject(pixel(1024, 512)), 0, 0, 1);   // centre: forward
-  expect_ray(kPanorama.unproject(pixel(1536, 512)), 1, 0, 0);   // theta = +90 deg: right
-  expect_ray(kPanorama.unproject(pixel(512, 512)), -1, 0, 0);   // left
-  expect_ray(kPanorama.unproject(pixel(1024, 256)), 0, -std::sqrt(0.5), std::sqrt(0.5));  // 45 deg up
+  expect_ray(kPanorama.unproject(pixel(1024, 512)), 0, 0, 1);  // centre: forward
+  expect_ray(kPanorama.unproject(pixel(1536, 512)), 1, 0, 0);  // theta = +90 deg: right
+  expect_ray(kPanorama.unproject(pixel(512, 512)), -1, 0, 0);  // left
+  expect_ray(kPanorama.unproject(pixel(1024, 256)), 0, -std::sqrt(0.5),
+             std::sqrt(0.5));  // 45 deg up
   expect_pixel(kPanorama.project(point(2, 0, 0)), 1536, 512);
-  expect_pixel(kPanorama.project(point(0, 3, 3)), 1024, 768);   // 45 deg down
+  expect_pixel(kPanorama.project(point(0, 3, 3)), 1024, 768);  // 45 deg down
 }
 
 TEST(Equirectangular, SeamJoins) {

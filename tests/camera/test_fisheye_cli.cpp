@@ -34,7 +34,8 @@ class FisheyeCli : public ::testing::Test {
   // `omnipoint camera rays` for the spec, as a (H, W, 3) float64 tensor.
   at::Tensor rays(const std::string& spec) const {
     const auto out = (dir_ / "rays.npy").string();
-    const test::CliRun run = test::run_omnipoint("camera rays --camera '" + spec + "' --out " + out, dir_ / "cli");
+    const test::CliRun run =
+        test::run_omnipoint("camera rays --camera '" + spec + "' --out " + out, dir_ / "cli");
     EXPECT_EQ(run.status, 0) << spec << ": " << run.err;
     const auto rays = io::read_npy(out);
     EXPECT_EQ(rays.scalar_type(), at::kFloat);
@@ -51,16 +52,18 @@ cv::Vec3d ray_at(const at::Tensor& rays, int64_t row, int64_t col) {
 
 TEST_F(FisheyeCli, OpenCVFisheyeMatchesOpenCV) {
   const double p[] = {60.3, 60.1, 80.2, 59.7, 0.031, -0.0094, 0.0012, -0.00011};
-  const auto rays = this->rays("OPENCV_FISHEYE 160 120 60.3 60.1 80.2 59.7 0.031 -0.0094 0.0012 -0.00011");
+  const auto rays =
+      this->rays("OPENCV_FISHEYE 160 120 60.3 60.1 80.2 59.7 0.031 -0.0094 0.0012 -0.00011");
   ASSERT_EQ(rays.sizes(), (std::vector<int64_t>{120, 160, 3}));
   std::vector<cv::Vec2d> pixels;
   for (int row = 0; row < 120; ++row) {
     for (int col = 0; col < 160; ++col) pixels.emplace_back(col, row);  // centres, OpenCV's way
   }
   std::vector<cv::Vec2d> plane;
-  cv::fisheye::undistortPoints(pixels, plane, cv::Matx33d(p[0], 0, p[2] - 0.5, 0, p[1], p[3] - 0.5, 0, 0, 1),
-                               cv::Vec4d(p[4], p[5], p[6], p[7]), cv::noArray(), cv::noArray(),
-                               cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, 100, 1e-14));
+  cv::fisheye::undistortPoints(
+      pixels, plane, cv::Matx33d(p[0], 0, p[2] - 0.5, 0, p[1], p[3] - 0.5, 0, 0, 1),
+      cv::Vec4d(p[4], p[5], p[6], p[7]), cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, 100, 1e-14));
   // cv::fisheye::undistortPoints returns x / z: the front hemisphere, here up to 80 degrees.
   double max_error = 0;
   int compared = 0;
@@ -88,14 +91,16 @@ TEST_F(FisheyeCli, MeiMatchesOpenCVOmnidir) {
   // ray is the one cv::omnidir::projectPoints maps back onto the pixel. Pixels where neither
   // does have no ray (beyond the fold).
   std::vector<cv::Vec2d> line;
-  cv::omnidir::undistortPoints(pixels, line, k, distortion, cv::Matx<double, 1, 1>(p[4]), cv::Matx33d::eye());
+  cv::omnidir::undistortPoints(pixels, line, k, distortion, cv::Matx<double, 1, 1>(p[4]),
+                               cv::Matx33d::eye());
   double max_error = 0;
   int beyond_ninety = 0, invalid = 0;
   for (std::size_t i = 0; i < pixels.size(); ++i) {
     const cv::Vec3d direction = cv::normalize(cv::Vec3d(line[i][0], line[i][1], 1.0));
     const std::vector<cv::Vec3d> candidates = {direction, -direction};
     std::vector<cv::Vec2d> back;
-    cv::omnidir::projectPoints(candidates, back, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, p[4], distortion);
+    cv::omnidir::projectPoints(candidates, back, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, p[4],
+                               distortion);
     const cv::Vec3d ours = ray_at(rays, i / 160, i % 160);
     bool found = false;
     for (int c = 0; c < 2; ++c) {
@@ -119,12 +124,14 @@ TEST_F(FisheyeCli, MeiMatchesOpenCVOmnidir) {
 
 // θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸) and its slope, for the scalar reference.
 double theta_d(double t, const double* k) {
-  return t * (1 + k[0] * t * t + k[1] * std::pow(t, 4) + k[2] * std::pow(t, 6) + k[3] * std::pow(t, 8));
+  return t *
+         (1 + k[0] * t * t + k[1] * std::pow(t, 4) + k[2] * std::pow(t, 6) + k[3] * std::pow(t, 8));
 }
 
 TEST_F(FisheyeCli, WideKannalaBrandtMatchesAScalarInverse) {
   const double p[] = {45.9, 46.1, 79.8, 60.4, 0.0342, -0.0147, 0.0021, -0.0003};
-  const auto rays = this->rays("OPENCV_FISHEYE 160 120 45.9 46.1 79.8 60.4 0.0342 -0.0147 0.0021 -0.0003");
+  const auto rays =
+      this->rays("OPENCV_FISHEYE 160 120 45.9 46.1 79.8 60.4 0.0342 -0.0147 0.0021 -0.0003");
   // The lens limit: where θ_d stops rising, from a fine scan (about 125 degrees).
   double limit = 0;
   while (limit < M_PI && theta_d(limit + 1e-5, p + 4) > theta_d(limit, p + 4)) limit += 1e-5;

@@ -48,11 +48,14 @@ struct WideCamera {
 
 double kannala_brandt_slope(double theta, const std::vector<double>& k) {
   double slope = 1.0;
-  for (std::size_t i = 0; i < k.size(); ++i) slope += (2.0 * i + 3.0) * k[i] * std::pow(theta, 2.0 * i + 2.0);
+  for (std::size_t i = 0; i < k.size(); ++i)
+    slope += (2.0 * i + 3.0) * k[i] * std::pow(theta, 2.0 * i + 2.0);
   return slope;
 }
 
-double unified_w(double alpha) { return alpha <= 0.5 ? alpha / (1 - alpha) : (1 - alpha) / alpha; }
+double unified_w(double alpha) {
+  return alpha <= 0.5 ? alpha / (1 - alpha) : (1 - alpha) / alpha;
+}
 
 const std::vector<WideCamera>& wide_cameras() {
   static const std::vector<WideCamera> cameras = {
@@ -172,8 +175,8 @@ TEST(KannalaBrandt, EquidistantBeyondNinetyDegreesMatchesTheFormula) {
   ASSERT_TRUE(pixels.valid.all().item<bool>());
   for (std::size_t i = 0; i < thetas.size(); ++i) {
     const double t = thetas[i];
-    const double theta_d =
-        t * (1 + p[4] * t * t + p[5] * std::pow(t, 4) + p[6] * std::pow(t, 6) + p[7] * std::pow(t, 8));
+    const double theta_d = t * (1 + p[4] * t * t + p[5] * std::pow(t, 4) + p[6] * std::pow(t, 6) +
+                                p[7] * std::pow(t, 8));
     EXPECT_NEAR(pixels.pixels[i][0].item<double>(), p[2] + p[0] * theta_d * std::cos(phi), 1e-9);
     EXPECT_NEAR(pixels.pixels[i][1].item<double>(), p[3] + p[1] * theta_d * std::sin(phi), 1e-9);
   }
@@ -251,15 +254,18 @@ TEST(ModelIdentities, EquidistantModels) {
                      "OPENCV_FISHEYE 640 480 200 200 320 240 -0.02 0 0 0");
   expect_same_camera("RADIAL_FISHEYE 640 480 200 320 240 -0.02 0.003",
                      "OPENCV_FISHEYE 640 480 200 200 320 240 -0.02 0.003 0 0");
-  expect_same_camera("THIN_PRISM_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0 0 0.0003 -0.00002 0 0",
-                     "OPENCV_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0.0003 -0.00002");
   expect_same_camera(
-      "RAD_TAN_THIN_PRISM_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0.0003 -0.00002 0 0 0 0 0 0 0 0",
+      "THIN_PRISM_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0 0 0.0003 -0.00002 0 0",
+      "OPENCV_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0.0003 -0.00002");
+  expect_same_camera(
+      "RAD_TAN_THIN_PRISM_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0.0003 -0.00002 0 0 0 0 0 0 "
+      "0 0",
       "OPENCV_FISHEYE 640 480 200 210 320 240 0.01 -0.002 0.0003 -0.00002");
   // Without radial terms the two prism models coincide: RAD_TAN's (p0, p1) are OpenCV's
   // (p2, p1) and its s0, s2 are sx1, sy1.
   expect_same_camera(
-      "RAD_TAN_THIN_PRISM_FISHEYE 640 480 200 210 320 240 0 0 0 0 0 0 0.0004 -0.0003 0.0006 0 -0.0005 0",
+      "RAD_TAN_THIN_PRISM_FISHEYE 640 480 200 210 320 240 0 0 0 0 0 0 0.0004 -0.0003 0.0006 0 "
+      "-0.0005 0",
       "THIN_PRISM_FISHEYE 640 480 200 210 320 240 0 0 -0.0003 0.0004 0 0 0.0006 -0.0005");
 }
 
@@ -302,7 +308,8 @@ TEST(ParameterRules, ClearErrors) {
   expect_rejected("UCM 640 480 200 200 320 240 -0.1", {"UCM", "alpha", "[0, 1]", "-0.1"});
   expect_rejected("EUCM 640 480 200 200 320 240 1.5 1", {"EUCM", "alpha", "[0, 1]"});
   expect_rejected("EUCM 640 480 200 200 320 240 0.5 0", {"EUCM", "beta", "> 0"});
-  expect_rejected("DOUBLE_SPHERE 640 480 200 200 320 240 1 0.5", {"DOUBLE_SPHERE", "xi", "(-1, 1)"});
+  expect_rejected("DOUBLE_SPHERE 640 480 200 200 320 240 1 0.5",
+                  {"DOUBLE_SPHERE", "xi", "(-1, 1)"});
   expect_rejected("DOUBLE_SPHERE 640 480 200 200 320 240 0 1.2", {"DOUBLE_SPHERE", "alpha"});
   expect_rejected("MEI 640 480 200 200 320 240 -0.2 0 0 0 0", {"MEI", "xi", ">= 0"});
   expect_rejected("MEI 640 480 200 200 320 240 1 0 0 0", {"MEI", "9"});

@@ -18,9 +18,11 @@ namespace {
 constexpr double kPixelTolerance = 1e-3;
 
 // fx fy cx cy k1 k2 k3 k4 of a 1280 x 960 fisheye over 180 degrees.
-const std::vector<double> kFisheye = {372.4, 371.8, 641.3, 478.9, 0.0412, -0.0113, 0.0019, -0.00021};
+const std::vector<double> kFisheye = {372.4,  371.8,   641.3,  478.9,
+                                      0.0412, -0.0113, 0.0019, -0.00021};
 // fx fy cx cy xi k1 k2 p1 p2 of a 1280 x 960 MEI camera (xi > 1: over 180 degrees).
-const std::vector<double> kMei = {781.6, 780.2, 639.4, 481.7, 1.42, -0.217, 0.094, 0.00037, -0.00052};
+const std::vector<double> kMei = {781.6,  780.2, 639.4,   481.7,   1.42,
+                                  -0.217, 0.094, 0.00037, -0.00052};
 
 cv::Matx33d opencv_matrix(const std::vector<double>& p) {
   return {p[0], 0, p[2] - 0.5, 0, p[1], p[3] - 0.5, 0, 0, 1};
@@ -51,7 +53,10 @@ std::vector<cv::Vec2d> to_opencv_pixels(const at::Tensor& pixels) {
 
 // Pixel centres on a coarse grid over the image, (N, 2).
 at::Tensor pixel_grid(const Camera& camera) {
-  return camera.pixel_centres(at::kDouble).slice(0, 0, camera.height(), 16).slice(1, 0, camera.width(), 16).reshape({-1, 2});
+  return camera.pixel_centres(at::kDouble)
+      .slice(0, 0, camera.height(), 16)
+      .slice(1, 0, camera.width(), 16)
+      .reshape({-1, 2});
 }
 
 // Rows of `values` where `keep` holds.
@@ -68,11 +73,13 @@ TEST(OpenCVCrossCheck, FisheyeProjectPoints) {
   ASSERT_TRUE(ours.valid.all().item<bool>());
   std::vector<cv::Vec2d> theirs;
   cv::fisheye::projectPoints(to_points(rays), theirs, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
-                             opencv_matrix(kFisheye), cv::Vec4d(kFisheye[4], kFisheye[5], kFisheye[6], kFisheye[7]));
+                             opencv_matrix(kFisheye),
+                             cv::Vec4d(kFisheye[4], kFisheye[5], kFisheye[6], kFisheye[7]));
   double max_error = 0;
   for (int64_t i = 0; i < rays.size(0); ++i) {
-    max_error = std::max(max_error, std::hypot(ours.pixels[i][0].item<double>() - 0.5 - theirs[i][0],
-                                               ours.pixels[i][1].item<double>() - 0.5 - theirs[i][1]));
+    max_error =
+        std::max(max_error, std::hypot(ours.pixels[i][0].item<double>() - 0.5 - theirs[i][0],
+                                       ours.pixels[i][1].item<double>() - 0.5 - theirs[i][1]));
   }
   EXPECT_LE(max_error, kPixelTolerance);
 }
@@ -87,15 +94,16 @@ TEST(OpenCVCrossCheck, FisheyeUndistortPoints) {
   const auto ours = rows(ours_all.rays, keep);
   ASSERT_GT(pixels.size(0), 1000);
   std::vector<cv::Vec2d> theirs;
-  cv::fisheye::undistortPoints(to_opencv_pixels(pixels), theirs, opencv_matrix(kFisheye),
-                               cv::Vec4d(kFisheye[4], kFisheye[5], kFisheye[6], kFisheye[7]),
-                               cv::noArray(), cv::noArray(),
-                               cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, 100, 1e-14));
+  cv::fisheye::undistortPoints(
+      to_opencv_pixels(pixels), theirs, opencv_matrix(kFisheye),
+      cv::Vec4d(kFisheye[4], kFisheye[5], kFisheye[6], kFisheye[7]), cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::MAX_ITER + cv::TermCriteria::EPS, 100, 1e-14));
   // The angle between the rays, times the focal length: the pixel error at the centre's scale.
   double max_error = 0;
   for (int64_t i = 0; i < pixels.size(0); ++i) {
     const cv::Vec3d ray = cv::normalize(cv::Vec3d(theirs[i][0], theirs[i][1], 1.0));
-    const cv::Vec3d our(ours[i][0].item<double>(), ours[i][1].item<double>(), ours[i][2].item<double>());
+    const cv::Vec3d our(ours[i][0].item<double>(), ours[i][1].item<double>(),
+                        ours[i][2].item<double>());
     max_error = std::max(max_error, cv::norm(ray - our) * kFisheye[0]);
   }
   EXPECT_LE(max_error, kPixelTolerance);
@@ -126,7 +134,8 @@ TEST(OpenCVCrossCheck, MeiUndistortPoints) {
   const auto ours_all = camera.unproject(grid);
   const auto pixels = rows(grid, ours_all.valid);
   const auto ours = rows(ours_all.rays, ours_all.valid);
-  ASSERT_GT((ours.select(-1, 2) < -0.2).sum().item<int64_t>(), 100) << "few pixels beyond 90 degrees";
+  ASSERT_GT((ours.select(-1, 2) < -0.2).sum().item<int64_t>(), 100)
+      << "few pixels beyond 90 degrees";
   // cv::omnidir::undistortPoints returns (x / z, y / z) of the unit ray (x, y, z): the line of
   // the ray, for rays behind the camera too. Compared as lines, away from z = 0.
   std::vector<cv::Vec2d> theirs;
@@ -136,7 +145,8 @@ TEST(OpenCVCrossCheck, MeiUndistortPoints) {
   double max_error = 0;
   int64_t compared = 0;
   for (int64_t i = 0; i < pixels.size(0); ++i) {
-    const cv::Vec3d our(ours[i][0].item<double>(), ours[i][1].item<double>(), ours[i][2].item<double>());
+    const cv::Vec3d our(ours[i][0].item<double>(), ours[i][1].item<double>(),
+                        ours[i][2].item<double>());
     if (std::abs(our[2]) < 0.05) continue;
     const cv::Vec3d line = cv::normalize(cv::Vec3d(theirs[i][0], theirs[i][1], 1.0));
     max_error = std::max(max_error, std::min(cv::norm(line - our), cv::norm(line + our)) * kMei[0]);

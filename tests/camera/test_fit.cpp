@@ -13,28 +13,35 @@ namespace {
 void expect_recovers(const std::string& spec, double focal_tolerance, double distortion_tolerance) {
   const auto truth = parse_camera(spec);
   const auto map = truth.ray_map(at::kDouble);
-  const auto fitted = fit_camera(truth.model_name(), truth.width(), truth.height(), map.rays, map.valid);
+  const auto fitted =
+      fit_camera(truth.model_name(), truth.width(), truth.height(), map.rays, map.valid);
   ASSERT_EQ(fitted.model_name(), truth.model_name());
   const auto names = truth.model().param_names();
   for (std::size_t i = 0; i < names.size(); ++i) {
     const bool pixel_unit = names[i] == "f" || names[i] == "fx" || names[i] == "fy" ||
                             names[i] == "cx" || names[i] == "cy";
-    EXPECT_NEAR(fitted.params()[i], truth.params()[i], pixel_unit ? focal_tolerance : distortion_tolerance)
+    EXPECT_NEAR(fitted.params()[i], truth.params()[i],
+                pixel_unit ? focal_tolerance : distortion_tolerance)
         << names[i] << " of " << spec;
   }
 }
 
-TEST(FitCamera, RecoversPinhole) { expect_recovers("PINHOLE 320 240 250.5 252.25 160.5 119.75", 1e-6, 0); }
+TEST(FitCamera, RecoversPinhole) {
+  expect_recovers("PINHOLE 320 240 250.5 252.25 160.5 119.75", 1e-6, 0);
+}
 
 TEST(FitCamera, RecoversOpenCV) {
   expect_recovers("OPENCV 320 240 250 252 160.5 119.5 -0.2 0.05 0.001 -0.0008", 1e-4, 1e-6);
 }
 
-TEST(FitCamera, RecoversFov) { expect_recovers("FOV 320 240 150 151 160 120 0.9", 1e-4, 1e-6); }
+TEST(FitCamera, RecoversFov) {
+  expect_recovers("FOV 320 240 150 151 160 120 0.9", 1e-4, 1e-6);
+}
 
 TEST(FitCamera, RecoversOpenCVFisheye) {
   // Over 180 degrees: the fit uses rays behind the image plane too.
-  expect_recovers("OPENCV_FISHEYE 320 240 92.6 92.4 160.3 119.6 0.025 -0.011 0.0016 -0.0001", 1e-4, 1e-6);
+  expect_recovers("OPENCV_FISHEYE 320 240 92.6 92.4 160.3 119.6 0.025 -0.011 0.0016 -0.0001", 1e-4,
+                  1e-6);
 }
 
 TEST(FitCamera, RecoversUnifiedModels) {
@@ -58,7 +65,8 @@ TEST(FitCamera, FloatRayMapFitsToFloatPrecision) {
 TEST(FitCamera, RejectsBadInput) {
   const auto map = parse_camera("PINHOLE 32 24 25 25 16 12").ray_map(at::kDouble);
   EXPECT_THROW(fit_camera("PINHOLE", 24, 32, map.rays, map.valid), std::invalid_argument);
-  EXPECT_THROW(fit_camera("PINHOLE", 32, 24, map.rays, at::zeros_like(map.valid)), std::invalid_argument);
+  EXPECT_THROW(fit_camera("PINHOLE", 32, 24, map.rays, at::zeros_like(map.valid)),
+               std::invalid_argument);
   EXPECT_THROW(fit_camera("NOPE", 32, 24, map.rays, map.valid), std::invalid_argument);
 }
 

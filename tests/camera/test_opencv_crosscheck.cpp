@@ -39,14 +39,17 @@ TEST_P(OpenCVCrossCheck, ProjectPoints) {
   const auto cv_camera = to_opencv(camera);
   const auto points = front_points(2000);
   std::vector<cv::Point2d> expected;
-  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv_camera.matrix, cv_camera.distortion, expected);
+  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv_camera.matrix,
+                    cv_camera.distortion, expected);
 
-  const auto ours = camera.project(at::from_blob(const_cast<cv::Point3d*>(points.data()), {2000, 3}, at::kDouble).clone());
+  const auto ours = camera.project(
+      at::from_blob(const_cast<cv::Point3d*>(points.data()), {2000, 3}, at::kDouble).clone());
   ASSERT_TRUE(ours.valid.all().item<bool>());
   double max_error = 0;
   for (int i = 0; i < 2000; ++i) {
-    max_error = std::max(max_error, std::hypot(ours.pixels[i][0].item<double>() - (expected[i].x + 0.5),
-                                               ours.pixels[i][1].item<double>() - (expected[i].y + 0.5)));
+    max_error =
+        std::max(max_error, std::hypot(ours.pixels[i][0].item<double>() - (expected[i].x + 0.5),
+                                       ours.pixels[i][1].item<double>() - (expected[i].y + 0.5)));
   }
   EXPECT_LE(max_error, 1e-3);
 }
@@ -58,10 +61,12 @@ TEST_P(OpenCVCrossCheck, UndistortPoints) {
   ASSERT_TRUE(map.valid.all().item<bool>());
   std::vector<cv::Point2d> pixels, normalised;
   for (int64_t y = 0; y < camera.height(); y += 7) {
-    for (int64_t x = 0; x < camera.width(); x += 7) pixels.emplace_back(x, y);  // centre (x+0.5, y+0.5)
+    for (int64_t x = 0; x < camera.width(); x += 7)
+      pixels.emplace_back(x, y);  // centre (x+0.5, y+0.5)
   }
-  cv::undistortPoints(pixels, normalised, cv_camera.matrix, cv_camera.distortion, cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-14));
+  cv::undistortPoints(
+      pixels, normalised, cv_camera.matrix, cv_camera.distortion, cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-14));
   double max_error_px = 0, max_ray_error = 0;
   std::size_t k = 0;
   for (int64_t y = 0; y < camera.height(); y += 7) {
@@ -69,10 +74,12 @@ TEST_P(OpenCVCrossCheck, UndistortPoints) {
       const auto ray = map.rays[y][x];
       const double rz = ray[2].item<double>();
       const double ex = normalised[k].x, ey = normalised[k].y;
-      max_error_px = std::max(max_error_px, camera.params()[0] * std::hypot(ray[0].item<double>() / rz - ex,
-                                                                           ray[1].item<double>() / rz - ey));
+      max_error_px =
+          std::max(max_error_px, camera.params()[0] * std::hypot(ray[0].item<double>() / rz - ex,
+                                                                 ray[1].item<double>() / rz - ey));
       const double n = std::sqrt(ex * ex + ey * ey + 1);
-      max_ray_error = std::max(max_ray_error, std::hypot(std::hypot(ray[0].item<double>() - ex / n, ray[1].item<double>() - ey / n),
+      max_ray_error = std::max(max_ray_error, std::hypot(std::hypot(ray[0].item<double>() - ex / n,
+                                                                    ray[1].item<double>() - ey / n),
                                                          rz - 1 / n));
     }
   }
@@ -82,8 +89,9 @@ TEST_P(OpenCVCrossCheck, UndistortPoints) {
 
 INSTANTIATE_TEST_SUITE_P(
     Models, OpenCVCrossCheck,
-    ::testing::Values("OPENCV 320 240 260 262 160.5 119.5 -0.28 0.09 0.0008 -0.0005",
-                      "FULL_OPENCV 320 240 220 221 160 120 -0.25 0.07 0.0005 -0.0003 0.01 0.02 0.005 0.001"),
+    ::testing::Values(
+        "OPENCV 320 240 260 262 160.5 119.5 -0.28 0.09 0.0008 -0.0005",
+        "FULL_OPENCV 320 240 220 221 160 120 -0.25 0.07 0.0005 -0.0003 0.01 0.02 0.005 0.001"),
     [](const ::testing::TestParamInfo<std::string>& info) {
       return info.param.substr(0, info.param.find(' '));
     });

@@ -46,9 +46,11 @@ TEST_P(ResizeCropTest, SeeTheSameRays) {
   expect_cropped_sees_the_same_rays(camera);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllModels, ResizeCropTest, ::testing::ValuesIn(testing::sample_camera_specs()),
+INSTANTIATE_TEST_SUITE_P(AllModels, ResizeCropTest,
+                         ::testing::ValuesIn(testing::sample_camera_specs()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                           return info.param.substr(0, info.param.find(' ')) + "_" + std::to_string(info.index);
+                           return info.param.substr(0, info.param.find(' ')) + "_" +
+                                  std::to_string(info.index);
                          });
 
 TEST(ResizeCrop, NonUniformResizeOfTwoFocalModel) {

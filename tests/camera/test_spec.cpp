@@ -65,7 +65,8 @@ TEST(CameraSpec, Json) {
 }
 
 TEST(CameraSpec, ToSpecRoundTripsExactly) {
-  const auto camera = make_camera("OPENCV", 64, 48, {1.0 / 3, 0.1, 32.123456789012345, 24, -1e-17, 0.2, 0, 0});
+  const auto camera =
+      make_camera("OPENCV", 64, 48, {1.0 / 3, 0.1, 32.123456789012345, 24, -1e-17, 0.2, 0, 0});
   EXPECT_EQ(parse_camera(camera.to_spec()), camera);
   EXPECT_EQ(parse_camera(camera.to_json()), camera);
 }
@@ -77,26 +78,34 @@ TEST(CameraSpec, CentredPinhole) {
   EXPECT_NEAR(camera.params()[1], 320, 1e-9);
   EXPECT_EQ(camera.params()[2], 320);
   EXPECT_EQ(camera.params()[3], 240);
-  expect_error<std::invalid_argument>([] { centred_pinhole(180, 640, 480); }, {"--fov", "(0, 180)"});
+  expect_error<std::invalid_argument>([] { centred_pinhole(180, 640, 480); },
+                                      {"--fov", "(0, 180)"});
   expect_error<std::invalid_argument>([] { centred_pinhole(0, 640, 480); }, {"--fov"});
 }
 
 TEST(CameraSpec, RejectsBadTensorInput) {
   const auto camera = parse_camera("PINHOLE 64 48 50 50 32 24");
-  expect_error<std::invalid_argument>([&] { camera.unproject(at::zeros({4, 2}, at::kLong)); }, {"floating-point"});
+  expect_error<std::invalid_argument>(
+      [&] {
+        camera.unproject(at::zeros({4, 2}, at::kLong));
+      },
+      {"floating-point"});
   expect_error<std::invalid_argument>([&] { camera.unproject(at::zeros({4, 3})); }, {"(..., 2)"});
   expect_error<std::invalid_argument>([&] { camera.project(at::zeros({4, 2})); }, {"(..., 3)"});
 }
 
 TEST(CameraSpec, WrongParameterCount) {
-  expect_bad_spec("PINHOLE 640 480 500 500 320", {"PINHOLE", "expects 4 parameters (fx fy cx cy)", "got 3"});
+  expect_bad_spec("PINHOLE 640 480 500 500 320",
+                  {"PINHOLE", "expects 4 parameters (fx fy cx cy)", "got 3"});
   expect_bad_spec("EQUIRECTANGULAR 64 32 1 2", {"EQUIRECTANGULAR", "0 parameters", "or 4"});
   expect_bad_spec("OPENCV 64 48", {"OPENCV", "8 parameters"});
 }
 
 TEST(CameraSpec, UnknownModel) {
-  expect_bad_spec("PINHOL 640 480 500 500 320 240", {"unknown camera model 'PINHOL'", "PINHOLE", "OPENCV", "EQUIRECTANGULAR"});
-  expect_bad_spec(R"({"model": "X", "width": 1, "height": 1, "params": []})", {"unknown camera model 'X'"});
+  expect_bad_spec("PINHOL 640 480 500 500 320 240",
+                  {"unknown camera model 'PINHOL'", "PINHOLE", "OPENCV", "EQUIRECTANGULAR"});
+  expect_bad_spec(R"({"model": "X", "width": 1, "height": 1, "params": []})",
+                  {"unknown camera model 'X'"});
 }
 
 TEST(CameraSpec, NonFiniteOrNonNumeric) {
@@ -108,7 +117,8 @@ TEST(CameraSpec, NonFiniteOrNonNumeric) {
 
 TEST(CameraSpec, ImpossibleValues) {
   expect_bad_spec("PINHOLE 640 480 0 500 320 240", {"PINHOLE", "focal length fx must be > 0"});
-  expect_bad_spec("SIMPLE_RADIAL 640 480 -5 320 240 0.1", {"SIMPLE_RADIAL", "focal length f must be > 0"});
+  expect_bad_spec("SIMPLE_RADIAL 640 480 -5 320 240 0.1",
+                  {"SIMPLE_RADIAL", "focal length f must be > 0"});
   expect_bad_spec("PINHOLE 0 480 500 500 320 240", {"PINHOLE", "image size must be positive"});
   expect_bad_spec("FOV 640 480 300 300 320 240 3.5", {"FOV", "omega must be in [0, pi)"});
   expect_bad_spec("EQUIRECTANGULAR 64 32 1 -1 0 1", {"EQUIRECTANGULAR", "lon_min < lon_max"});
@@ -118,14 +128,17 @@ TEST(CameraSpec, ImpossibleValues) {
 TEST(CameraSpec, BadJson) {
   expect_bad_spec(R"({"model": "PINHOLE", "width": 64)", {"not valid JSON"});
   expect_bad_spec(R"({"model": "PINHOLE", "width": 64, "height": 48})", {"expected {\"model\""});
-  expect_bad_spec(R"({"model": "PINHOLE", "width": 64, "height": 48, "params": [1, "a", 3, 4]})", {"params must be numbers"});
-  expect_bad_spec(R"({"model": "PINHOLE", "width": 6.5, "height": 48, "params": [1, 1, 3, 4]})", {"expected {\"model\""});
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 64, "height": 48, "params": [1, "a", 3, 4]})",
+                  {"params must be numbers"});
+  expect_bad_spec(R"({"model": "PINHOLE", "width": 6.5, "height": 48, "params": [1, 1, 3, 4]})",
+                  {"expected {\"model\""});
 }
 
 TEST(CameraSpec, EmptyOrUnrecognised) {
   expect_bad_spec("   ", {"empty camera spec"});
-  expect_error<std::runtime_error>([] { parse_camera("/no/such/cameras.txt"); },
-                                   {"'/no/such/cameras.txt'", "not a camera line", "existing file"});
+  expect_error<std::runtime_error>(
+      [] { parse_camera("/no/such/cameras.txt"); },
+      {"'/no/such/cameras.txt'", "not a camera line", "existing file"});
 }
 
 TEST_F(SpecFiles, CamerasTxtFirstAndById) {
@@ -145,8 +158,10 @@ TEST_F(SpecFiles, CamerasTxtFirstAndById) {
 }
 
 TEST_F(SpecFiles, SingleLineAndJsonFiles) {
-  EXPECT_EQ(parse_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(), "FOV");
-  const auto json = write("cam.json", R"({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []})");
+  EXPECT_EQ(parse_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(),
+            "FOV");
+  const auto json =
+      write("cam.json", R"({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []})");
   EXPECT_EQ(parse_camera(json).model_name(), "EQUIRECTANGULAR");
   expect_bad_spec(json + "#2", {"JSON camera file holds one camera"});
 }
@@ -155,7 +170,8 @@ TEST_F(SpecFiles, BadFiles) {
   expect_bad_spec(write("empty.txt", "# nothing\n"), {"contains no camera"});
   expect_bad_spec(write("junk.txt", "hello world\n"), {"not a camera line"});
   expect_bad_spec(write("bad.json", "{\"model\": \n"), {"bad.json", "not valid JSON"});
-  expect_bad_spec(write("badcount.txt", "1 PINHOLE 640 480 500 500\n"), {"PINHOLE", "expects 4 parameters"});
+  expect_bad_spec(write("badcount.txt", "1 PINHOLE 640 480 500 500\n"),
+                  {"PINHOLE", "expects 4 parameters"});
 }
 
 }  // namespace

@@ -21,7 +21,8 @@ class ForwardCommand : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("omnipoint_forward_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("omnipoint_forward_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -52,33 +53,38 @@ void expect_close(const at::Tensor& actual, const at::Tensor& reference, const s
 
 TEST_F(ForwardCommand, WritesTheFixtureOutputs) {
   const fs::path out = dir_ / "out";
-  const omnipoint::test::CliRun result = run("--model " + kModel + " --input " + kFixture + "/input.npy --num-tokens 300 --out " +
-                         out.string());
+  const omnipoint::test::CliRun result = run("--model " + kModel + " --input " + kFixture +
+                                             "/input.npy --num-tokens 300 --out " + out.string());
   ASSERT_EQ(result.status, 0) << result.err;
   EXPECT_EQ(result.err, "");
   const at::Tensor points = read_npy((out / "points.npy").string());
   expect_close(points, read_npy(kFixture + "/expected_points.npy"), "points");
-  expect_close(read_npy((out / "mask.npy").string()), read_npy(kFixture + "/expected_mask.npy"), "mask");
-  expect_close(read_npy((out / "metric_scale.npy").string()), read_npy(kFixture + "/expected_metric_scale.npy"),
-               "metric_scale");
+  expect_close(read_npy((out / "mask.npy").string()), read_npy(kFixture + "/expected_mask.npy"),
+               "mask");
+  expect_close(read_npy((out / "metric_scale.npy").string()),
+               read_npy(kFixture + "/expected_metric_scale.npy"), "metric_scale");
   // Rays and distances describe the same point map.
   const at::Tensor rays = read_npy((out / "rays.npy").string());
   const at::Tensor distance = read_npy((out / "distance.npy").string());
-  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(rays, 2, {-1}), at::ones_like(distance), 0, 1e-5));
+  EXPECT_TRUE(
+      at::allclose(at::linalg_vector_norm(rays, 2, {-1}), at::ones_like(distance), 0, 1e-5));
   EXPECT_TRUE(at::allclose(rays * distance.unsqueeze(-1), points, 1e-5, 1e-5));
   EXPECT_FALSE(fs::exists(out / "normal.npy"));  // the fixture model has no normal head
 }
 
 TEST_F(ForwardCommand, RefusesBadFilesWithOneLine) {
   const std::string input = kFixture + "/input.npy";
-  expect_refusal("--model " + (dir_ / "missing.safetensors").string() + " --input " + input, "missing.safetensors");
+  expect_refusal("--model " + (dir_ / "missing.safetensors").string() + " --input " + input,
+                 "missing.safetensors");
   expect_refusal("--model " + input + " --input " + input, input);  // not a weights file
-  expect_refusal("--model " + kModel + " --input " + (dir_ / "missing.npy").string(), "missing.npy");
+  expect_refusal("--model " + kModel + " --input " + (dir_ / "missing.npy").string(),
+                 "missing.npy");
 }
 
 TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
   const std::string input = kFixture + "/input.npy";
-  expect_refusal("--model " + kModel + " --input " + kFixture + "/expected_points.npy", "(B,3,H,W)");
+  expect_refusal("--model " + kModel + " --input " + kFixture + "/expected_points.npy",
+                 "(B,3,H,W)");
   expect_refusal("--model " + kModel + " --input " + input + " --num-tokens 0", "--num-tokens");
 
   const std::string too_bright = (dir_ / "too_bright.npy").string();
@@ -93,13 +99,15 @@ TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
 
 TEST_F(ForwardCommand, RunsAnOmniPointCheckpoint) {
   const fs::path model = dir_ / "tiny.safetensors";
-  ASSERT_EQ(omnipoint::test::run_omnipoint("init-model --config " + std::string(OMNIPOINT_SOURCE_DIR) +
-                                    "/examples/models/tiny_omnipoint.json --out " + model.string() + " --seed 3",
-                                dir_ / "cli")
+  ASSERT_EQ(omnipoint::test::run_omnipoint(
+                "init-model --config " + std::string(OMNIPOINT_SOURCE_DIR) +
+                    "/examples/models/tiny_omnipoint.json --out " + model.string() + " --seed 3",
+                dir_ / "cli")
                 .status,
             0);
   const fs::path out = dir_ / "out";
-  const omnipoint::test::CliRun result = run("--model " + model.string() + " --input " + kFixture + "/input.npy --out " + out.string());
+  const omnipoint::test::CliRun result = run("--model " + model.string() + " --input " + kFixture +
+                                             "/input.npy --out " + out.string());
   ASSERT_EQ(result.status, 0) << result.err;
   EXPECT_FALSE(fs::exists(out / "normal.npy")) << "the OmniPoint model has no normal head";
 
@@ -118,5 +126,6 @@ TEST_F(ForwardCommand, RunsAnOmniPointCheckpoint) {
   EXPECT_GT(distance.min().item<float>(), 0.0f);
   EXPECT_GE(mask.min().item<float>(), 0.0f);
   EXPECT_LE(mask.max().item<float>(), 1.0f);
-  expect_close(points, scale.view({batch, 1, 1, 1}) * distance.unsqueeze(-1) * rays, "points = s·d·r");
+  expect_close(points, scale.view({batch, 1, 1, 1}) * distance.unsqueeze(-1) * rays,
+               "points = s·d·r");
 }

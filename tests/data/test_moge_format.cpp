@@ -73,7 +73,8 @@ TEST(MogeDepth, PngFileRoundTripKeepsTextChunksAndPixels) {
   const auto code = encode_moge_depth(depth);
   EXPECT_EQ(cv.at<uint16_t>(5, 7), code.values[5][7].item<int>());
   const auto back = read_moge_depth(path);
-  EXPECT_TRUE(at::allclose(back.masked_select(at::isfinite(depth)), decode_moge_depth(code).masked_select(at::isfinite(depth))));
+  EXPECT_TRUE(at::allclose(back.masked_select(at::isfinite(depth)),
+                           decode_moge_depth(code).masked_select(at::isfinite(depth))));
   EXPECT_TRUE(std::isinf(back[1][2].item<float>()));
 
   // Missing text chunks or a corrupt stream are errors naming the file.
@@ -97,7 +98,8 @@ TEST(MogeDepth, ReadsAnInstanceFolderAsAPinholeSample) {
   auto depth = at::full({h, w}, 3.0f);
   depth[0][0] = NAN;
   write_moge_depth((root / "scene_a" / "depth.png").string(), depth);
-  std::ofstream(root / "scene_a" / "meta.json") << R"({"intrinsics": [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]})";
+  std::ofstream(root / "scene_a" / "meta.json")
+      << R"({"intrinsics": [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]})";
   std::ofstream(root / ".index.txt") << "scene_a\n";
   const auto instances = list_moge_instances(root.string());
   ASSERT_EQ(instances.size(), 1u);

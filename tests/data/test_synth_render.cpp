@@ -79,7 +79,8 @@ TEST(SynthRender, PlaneAheadGivesConstantPlanarDepthThroughAPinhole) {
   EXPECT_LT((out.depth - c).abs().max().item<double>(), 1e-9);
   EXPECT_LT((out.distance * rays.rays.select(-1, 2) - c).abs().max().item<double>(), 1e-9);
   // The plane faces the camera: its normal is -z in the camera frame.
-  EXPECT_LT((out.normals - at::tensor({0.0, 0.0, -1.0}, at::kDouble)).abs().max().item<double>(), 1e-12);
+  EXPECT_LT((out.normals - at::tensor({0.0, 0.0, -1.0}, at::kDouble)).abs().max().item<double>(),
+            1e-12);
 }
 
 TEST(SynthRender, RoomBoxCylinderAndOpening) {
@@ -113,7 +114,9 @@ TEST(SynthRender, RoomBoxCylinderAndOpening) {
   scene.primitives.push_back(pillar);
   out = render_scene(scene, rays.rays, rays.valid);
   EXPECT_NEAR(out.distance[4][4].item<double>(), 1.0, 1e-12);
-  EXPECT_LT((out.normals[4][4] - at::tensor({0.0, 0.0, -1.0}, at::kDouble)).abs().max().item<double>(), 1e-12);
+  EXPECT_LT(
+      (out.normals[4][4] - at::tensor({0.0, 0.0, -1.0}, at::kDouble)).abs().max().item<double>(),
+      1e-12);
 }
 
 TEST(SynthRender, CameraInsideAVerticalCylinderSeesItsWallAndCaps) {
@@ -130,7 +133,8 @@ TEST(SynthRender, CameraInsideAVerticalCylinderSeesItsWallAndCaps) {
   ASSERT_TRUE(out.mask.all().item<bool>());
   // Elevation phi of each pixel (up positive, camera level): -ray.y = sin(phi).
   const auto sin_phi = -rays.rays.select(-1, 1), cos_phi = at::sqrt(1 - sin_phi * sin_phi);
-  const auto expected = at::where(sin_phi.abs() * r > half * cos_phi, half / sin_phi.abs(), r / cos_phi);
+  const auto expected =
+      at::where(sin_phi.abs() * r > half * cos_phi, half / sin_phi.abs(), r / cos_phi);
   EXPECT_LT((out.distance - expected).abs().max().item<double>(), 1e-9);
 }
 
@@ -154,7 +158,8 @@ TEST(SynthRender, RejectsBadInputs) {
   auto scene = bare_scene({0, 0, 0});
   const auto rays = at::zeros({4, 4, 3});
   EXPECT_THROW(render_scene(scene, rays, at::ones({4, 4})), std::invalid_argument);
-  EXPECT_THROW(render_scene(scene, at::zeros({4, 4}), at::ones({4, 4}, at::kBool)), std::invalid_argument);
+  EXPECT_THROW(render_scene(scene, at::zeros({4, 4}), at::ones({4, 4}, at::kBool)),
+               std::invalid_argument);
   Scene empty;
   EXPECT_THROW(render_scene(empty, rays, at::ones({4, 4}, at::kBool)), std::invalid_argument);
 }

@@ -27,7 +27,9 @@ fs::path fresh_dir(const std::string& name) {
   return dir;
 }
 
-std::string file_bytes(const fs::path& p) { return io::read_file(p.string()); }
+std::string file_bytes(const fs::path& p) {
+  return io::read_file(p.string());
+}
 
 TEST(SynthSample, SameSeedGivesIdenticalBytesWhateverTheThreadCount) {
   const auto cam = camera::parse_camera("PINHOLE 64 48 52 52 32 24");
@@ -38,7 +40,8 @@ TEST(SynthSample, SameSeedGivesIdenticalBytesWhateverTheThreadCount) {
   at::set_num_threads(std::max(2, threads));
   synth::write_synth_sample((dir / "b").string(), synth::synthesize(SceneKind::kIndoor, 11, cam));
   at::set_num_threads(threads);
-  for (const char* f : {"image.png", "distance.npy", "depth.npy", "rays.npy", "normals.npy", "mask.png", "meta.json"})
+  for (const char* f : {"image.png", "distance.npy", "depth.npy", "rays.npy", "normals.npy",
+                        "mask.png", "meta.json"})
     EXPECT_EQ(file_bytes(dir / "a" / f), file_bytes(dir / "b" / f)) << f;
   const auto other = synth::synthesize(SceneKind::kIndoor, 12, cam);
   const auto first = synth::synthesize(SceneKind::kIndoor, 11, cam);
@@ -74,7 +77,7 @@ TEST(SynthSample, EveryKindProducesPlausibleGeometry) {
         EXPECT_GT(coverage, 0.3);
         EXPECT_LT(coverage, 0.97);  // there is sky
       } else {
-        EXPECT_GT(coverage, 0.9);  // closed rooms, sky only through windows
+        EXPECT_GT(coverage, 0.9);                   // closed rooms, sky only through windows
         EXPECT_LT(d.median().item<double>(), 8.0);  // (windows may show a distant lawn)
       }
       EXPECT_GT(d.min().item<double>(), 0.05);
@@ -102,13 +105,16 @@ TEST(SampleFormat, WriteReadRoundTrip) {
   fs::remove(dir / "distance.npy");
   const auto from_depth = read_sample(dir.string());
   const auto forward = s.sample.mask & (s.rays.select(-1, 2) > 0.2);
-  EXPECT_LT((from_depth.distance - s.sample.distance).masked_select(forward).abs().max().item<double>(), 1e-4);
+  EXPECT_LT(
+      (from_depth.distance - s.sample.distance).masked_select(forward).abs().max().item<double>(),
+      1e-4);
 }
 
 TEST(SampleFormat, BadFoldersAreRejectedWithTheirReason) {
   const auto cam = camera::parse_camera("PINHOLE 16 12 14 14 8 6");
   const auto good = synth::synthesize(SceneKind::kObject, 2, cam);
-  const auto expect_error = [&](const std::string& name, const std::function<void(const fs::path&)>& spoil,
+  const auto expect_error = [&](const std::string& name,
+                                const std::function<void(const fs::path&)>& spoil,
                                 const std::string& reason) {
     const auto dir = fresh_dir("bad_" + name);
     write_sample(dir.string(), good.sample);
@@ -120,18 +126,44 @@ TEST(SampleFormat, BadFoldersAreRejectedWithTheirReason) {
       EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << name << ": " << e.what();
     }
   };
-  expect_error("no_meta", [](const fs::path& d) { fs::remove(d / "meta.json"); }, "meta.json");
-  expect_error("no_image", [](const fs::path& d) { fs::remove(d / "image.png"); }, "image");
-  expect_error("no_depth", [](const fs::path& d) { fs::remove(d / "distance.npy"); }, "distance.npy");
-  expect_error("corrupt_image", [](const fs::path& d) { std::ofstream(d / "image.png") << "nope"; }, "image.png");
-  expect_error("nan", [&](const fs::path& d) {
-    auto t = good.sample.distance.clone(); t[3][4] = NAN; io::write_npy((d / "distance.npy").string(), t); }, "NaN");
-  expect_error("negative", [&](const fs::path& d) {
-    auto t = good.sample.distance.clone(); t[3][4] = -1; io::write_npy((d / "distance.npy").string(), t); }, "negative");
-  expect_error("size", [&](const fs::path& d) {
-    io::write_npy((d / "distance.npy").string(), at::ones({5, 5})); }, "shape");
-  expect_error("camera", [](const fs::path& d) {
-    std::ofstream(d / "meta.json") << R"({"camera": "NO_SUCH_MODEL 16 12 1 2 3", "metric": true})"; }, "camera");
+  expect_error(
+      "no_meta", [](const fs::path& d) { fs::remove(d / "meta.json"); }, "meta.json");
+  expect_error(
+      "no_image", [](const fs::path& d) { fs::remove(d / "image.png"); }, "image");
+  expect_error(
+      "no_depth", [](const fs::path& d) { fs::remove(d / "distance.npy"); }, "distance.npy");
+  expect_error(
+      "corrupt_image", [](const fs::path& d) { std::ofstream(d / "image.png") << "nope"; },
+      "image.png");
+  expect_error(
+      "nan",
+      [&](const fs::path& d) {
+        auto t = good.sample.distance.clone();
+        t[3][4] = NAN;
+        io::write_npy((d / "distance.npy").string(), t);
+      },
+      "NaN");
+  expect_error(
+      "negative",
+      [&](const fs::path& d) {
+        auto t = good.sample.distance.clone();
+        t[3][4] = -1;
+        io::write_npy((d / "distance.npy").string(), t);
+      },
+      "negative");
+  expect_error(
+      "size",
+      [&](const fs::path& d) {
+        io::write_npy((d / "distance.npy").string(), at::ones({5, 5}));
+      },
+      "shape");
+  expect_error(
+      "camera",
+      [](const fs::path& d) {
+        std::ofstream(d / "meta.json")
+            << R"({"camera": "NO_SUCH_MODEL 16 12 1 2 3", "metric": true})";
+      },
+      "camera");
 }
 
 TEST(SampleTransforms, CropAndResizeKeepThePointsOfTheScene) {
@@ -143,7 +175,8 @@ TEST(SampleTransforms, CropAndResizeKeepThePointsOfTheScene) {
   };
   // Crop: exactly the same points at the same pixels.
   const auto c = crop_sample(s, 10, 7, 50, 40);
-  EXPECT_LT((points(c) - points(s).narrow(0, 7, 40).narrow(1, 10, 50)).abs().max().item<double>(), 1e-5);
+  EXPECT_LT((points(c) - points(s).narrow(0, 7, 40).narrow(1, 10, 50)).abs().max().item<double>(),
+            1e-5);
   EXPECT_THROW(crop_sample(s, 60, 0, 50, 10), std::invalid_argument);
 
   // Resize by 1/2: each new pixel's point is the source pixel's point it was taken from,
@@ -160,13 +193,15 @@ TEST(SampleTransforms, CropAndResizeKeepThePointsOfTheScene) {
 TEST(SynthCli, WritesOneFolderPerSeedAndRejectsBadInput) {
   const auto dir = fresh_dir("cli");
   const auto run = [&](const std::string& args) { return test::run_omnipoint(args, dir / "cli"); };
-  const test::CliRun ok = run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene outdoor --seed 7 --count 2 --out " +
-                              dir.string());
+  const test::CliRun ok =
+      run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene outdoor --seed 7 --count 2 --out " +
+          dir.string());
   ASSERT_EQ(ok.status, 0) << ok.err;
   EXPECT_TRUE(fs::exists(dir / "000007" / "image.png"));
   EXPECT_TRUE(fs::exists(dir / "000008" / "meta.json"));
   EXPECT_EQ(read_sample((dir / "000008").string()).camera.width(), 32);
-  const test::CliRun bad_scene = run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene moon --out " + dir.string());
+  const test::CliRun bad_scene =
+      run("synth --camera 'PINHOLE 32 24 30 30 16 12' --scene moon --out " + dir.string());
   EXPECT_NE(bad_scene.status, 0);
   EXPECT_NE(bad_scene.err.find("moon"), std::string::npos) << bad_scene.err;
   EXPECT_NE(run("synth --camera 'PINHOLE 32' --out " + dir.string()).status, 0);

@@ -25,7 +25,8 @@ inline const std::vector<std::string>& tiny_cameras() {
 // alternating), in sub-folders named after the split.
 inline std::filesystem::path make_tiny_dataset(const std::string& name, int per_split = 2) {
   namespace fs = std::filesystem;
-  const fs::path root = fs::temp_directory_path() / ("omnipoint_eval_" + name + "_" + std::to_string(::getpid()));
+  const fs::path root =
+      fs::temp_directory_path() / ("omnipoint_eval_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(root);
   const data::synth::SynthOptions options = test::fast_synth();
   const std::vector<std::string> splits{"sfov", "lfov", "pano"};
@@ -33,8 +34,9 @@ inline std::filesystem::path make_tiny_dataset(const std::string& name, int per_
     const auto camera = camera::parse_camera(tiny_cameras()[s]);
     for (int i = 0; i < per_split; ++i) {
       const auto kind = i % 2 ? data::synth::SceneKind::kOutdoor : data::synth::SceneKind::kIndoor;
-      data::synth::write_synth_sample((root / splits[s] / std::to_string(i)).string(),
-                                      data::synth::synthesize(kind, 100 + 10 * s + i, camera, options));
+      data::synth::write_synth_sample(
+          (root / splits[s] / std::to_string(i)).string(),
+          data::synth::synthesize(kind, 100 + 10 * s + i, camera, options));
     }
   }
   return root;

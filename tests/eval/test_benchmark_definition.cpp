@@ -56,7 +56,9 @@ TEST(BenchmarkDefinition, SyntheticV1MeetsItsSpecification) {
     EXPECT_EQ(per_split.size(), 3u);
     for (const auto& [split, count] : per_split) {
       EXPECT_GE(count, 200) << split;
-      EXPECT_TRUE(scenes[split].count(SceneKind::kIndoor) && scenes[split].count(SceneKind::kOutdoor)) << split;
+      EXPECT_TRUE(scenes[split].count(SceneKind::kIndoor) &&
+                  scenes[split].count(SceneKind::kOutdoor))
+          << split;
     }
     EXPECT_EQ(seeds.size(), plan.samples.size());
     if (std::string(set) == "main") {
@@ -100,14 +102,21 @@ TEST(BenchmarkDefinition, BadDefinitionsNameTheProblem) {
   };
   EXPECT_NE(message("{", "main").find("def.json: not valid JSON"), std::string::npos);
   EXPECT_NE(message(kSmall, "test").find("no set \"test\""), std::string::npos);
-  EXPECT_NE(message(R"({"name": "t", "version": 1, "sets": {"main": 1}})", "main").find("missing or mistyped"),
+  EXPECT_NE(message(R"({"name": "t", "version": 1, "sets": {"main": 1}})", "main")
+                .find("missing or mistyped"),
             std::string::npos);
-  EXPECT_NE(message(R"({"name": "t", "version": 1, "sets": {"main": 1}, "splits": [{"name": "a", "count": 0,
-                      "scenes": ["indoor"], "cameras": ["PINHOLE 8 6 6 6 4 3"]}]})", "main").find("count >= 1"),
-            std::string::npos);
-  EXPECT_THROW(plan_benchmark(R"({"name": "t", "version": 1, "sets": {"main": 1}, "splits": [{"name": "a",
-                 "count": 1, "scenes": ["moon"], "cameras": ["PINHOLE 8 6 6 6 4 3"]}]})", "d", "main"),
-               std::invalid_argument);
+  EXPECT_NE(
+      message(
+          R"({"name": "t", "version": 1, "sets": {"main": 1}, "splits": [{"name": "a", "count": 0,
+                      "scenes": ["indoor"], "cameras": ["PINHOLE 8 6 6 6 4 3"]}]})",
+          "main")
+          .find("count >= 1"),
+      std::string::npos);
+  EXPECT_THROW(
+      plan_benchmark(R"({"name": "t", "version": 1, "sets": {"main": 1}, "splits": [{"name": "a",
+                 "count": 1, "scenes": ["moon"], "cameras": ["PINHOLE 8 6 6 6 4 3"]}]})",
+                     "d", "main"),
+      std::invalid_argument);
 }
 
 }  // namespace

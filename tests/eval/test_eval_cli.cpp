@@ -4,9 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <ATen/ATen.h>
-#include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <nlohmann/json.hpp>
 
 #include <cstdlib>
 #include <filesystem>
@@ -16,12 +16,12 @@
 #include <vector>
 
 #include "omnipoint/data/dataset_index.h"
-#include "support/cli_run.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_config.h"
 #include "omnipoint/model/omnipoint_model.h"
 #include "omnipoint/model/state_dict.h"
+#include "support/cli_run.h"
 #include "support/tiny_omnipoint.h"
 
 namespace {
@@ -39,7 +39,8 @@ std::vector<std::string> lines_of(const std::string& text) {
 
 const fs::path& work_dir() {
   static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / ("omnipoint_eval_cli_" + std::to_string(::getpid()));
+    const fs::path d =
+        fs::temp_directory_path() / ("omnipoint_eval_cli_" + std::to_string(::getpid()));
     fs::remove_all(d);
     fs::create_directories(d);
     return d;
@@ -47,7 +48,9 @@ const fs::path& work_dir() {
   return dir;
 }
 
-CliRun run_cli(const std::string& args) { return omnipoint::test::run_omnipoint(args, work_dir()); }
+CliRun run_cli(const std::string& args) {
+  return omnipoint::test::run_omnipoint(args, work_dir());
+}
 
 void expect_one_error_line(const CliRun& run, const std::string& needle) {
   EXPECT_NE(run.status, 0);
@@ -74,12 +77,12 @@ class EvalCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     std::ofstream(work_dir() / "tiny.json") << kTinyBenchmark;
-    const CliRun synth = run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() + " --out " +
-                                 (work_dir() / "data").string());
+    const CliRun synth = run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() +
+                                 " --out " + (work_dir() / "data").string());
     ASSERT_EQ(synth.status, 0) << synth.err;
     at::manual_seed(3);
-    const auto config =
-        omnipoint::model::OmniPointConfig::from_json_text(omnipoint::test::tiny_omnipoint_config_json());
+    const auto config = omnipoint::model::OmniPointConfig::from_json_text(
+        omnipoint::test::tiny_omnipoint_config_json());
     omnipoint::model::OmniPointModel model(config);
     omnipoint::io::write_safetensors((work_dir() / "tiny.safetensors").string(),
                                      omnipoint::model::state_dict(*model),
@@ -92,7 +95,8 @@ class EvalCli : public ::testing::Test {
 TEST_F(EvalCli, SynthBenchmarkWritesEverySplitAndSample) {
   for (const char* split : {"S.FoV", "L.FoV", "360"})
     for (const char* index : {"0000", "0001"})
-      EXPECT_TRUE(fs::exists(work_dir() / "data" / split / index / "distance.npy")) << split << index;
+      EXPECT_TRUE(fs::exists(work_dir() / "data" / split / index / "distance.npy"))
+          << split << index;
   EXPECT_FALSE(fs::exists(work_dir() / "data" / "S.FoV" / "0002"));
   // The same definition renders identical files.
   const CliRun again = run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() +
@@ -105,8 +109,9 @@ TEST_F(EvalCli, SynthBenchmarkWritesEverySplitAndSample) {
 
 TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
   const fs::path out = work_dir() / "eval_model";
-  const CliRun run = run_cli("eval --model " + (work_dir() / "tiny.safetensors").string() + " --data " + data() +
-                             " --intrinsics --sparse-depth 30 --out " + out.string());
+  const CliRun run =
+      run_cli("eval --model " + (work_dir() / "tiny.safetensors").string() + " --data " + data() +
+              " --intrinsics --sparse-depth 30 --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("ETA"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("6/6 samples"), std::string::npos) << run.err;
@@ -129,17 +134,18 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
 TEST_F(EvalCli, RandomModelFromAConfigIsSeeded) {
   std::ofstream(work_dir() / "tiny_config.json") << omnipoint::test::tiny_omnipoint_config_json();
   const auto table = [&](const std::string& name) {
-    const CliRun run = run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() + " --data " +
-                               data() + " --out " + (work_dir() / name).string());
+    const CliRun run = run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() +
+                               " --data " + data() + " --out " + (work_dir() / name).string());
     EXPECT_EQ(run.status, 0) << run.err;
     return slurp(work_dir() / name / "table.md");
   };
   const std::string first = table("eval_random_a");
   EXPECT_NE(first.find("| tiny_config (random weights) | none |"), std::string::npos) << first;
   EXPECT_EQ(first, table("eval_random_b"));  // same seed, same weights, same scores
-  expect_one_error_line(run_cli("eval --random-model " + (work_dir() / "tiny.json").string() + " --data " + data() +
-                                " --out " + (work_dir() / "eval_random_bad").string()),
-                        "");
+  expect_one_error_line(
+      run_cli("eval --random-model " + (work_dir() / "tiny.json").string() + " --data " + data() +
+              " --out " + (work_dir() / "eval_random_bad").string()),
+      "");
 }
 
 TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
@@ -149,7 +155,8 @@ TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
                              "/moge2_forward_a/model.safetensors --label MoGe-2 --data " + data() +
                              " --intrinsics --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
-  EXPECT_NE(run.err.find("mode +K not run: MoGe-2 takes no such input"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("mode +K not run: MoGe-2 takes no such input"), std::string::npos)
+      << run.err;
   const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(summary["samples_evaluated"], 6);
   EXPECT_EQ(summary["modes"], nlohmann::json({"none"}));
@@ -162,7 +169,8 @@ TEST_F(EvalCli, ExternalPointMapsAreScoredLikeModels) {
   const fs::path predictions = work_dir() / "predictions";
   for (const auto& item : omnipoint::data::list_dataset(data())) {
     const auto sample = omnipoint::data::read_dataset_item(item, true);
-    const at::Tensor points = sample.distance.unsqueeze(-1) * sample.camera.ray_map(at::kFloat).rays;
+    const at::Tensor points =
+        sample.distance.unsqueeze(-1) * sample.camera.ray_map(at::kFloat).rays;
     fs::create_directories((predictions / item.id).parent_path());
     omnipoint::io::write_npy((predictions / (item.id + ".npy")).string(), points);
   }
@@ -175,8 +183,10 @@ TEST_F(EvalCli, ExternalPointMapsAreScoredLikeModels) {
   EXPECT_NE(run.err.find("mode +K not run"), std::string::npos) << run.err;
   const auto table = lines_of(slurp(out / "table.md"));
   ASSERT_EQ(table.size(), 3u);
-  EXPECT_EQ(table[2], "| predictions | none | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 | 0.00 | 100.0 | 0.00 | 100.0 | "
-                      "100.0 | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 |");
+  EXPECT_EQ(
+      table[2],
+      "| predictions | none | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 | 0.00 | 100.0 | 0.00 | 100.0 | "
+      "100.0 | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 |");
   const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(summary["samples_evaluated"], 5);
   EXPECT_EQ(summary["skipped"]["missing prediction"], 1);
@@ -184,8 +194,8 @@ TEST_F(EvalCli, ExternalPointMapsAreScoredLikeModels) {
 
 TEST_F(EvalCli, SparseDepthDefaultsToOneThousandPoints) {
   const fs::path out = work_dir() / "eval_default_sparse";
-  const CliRun run = run_cli("eval --baseline oracle --label Oracle --data " + data() + " --sparse-depth --out " +
-                             out.string());
+  const CliRun run = run_cli("eval --baseline oracle --label Oracle --data " + data() +
+                             " --sparse-depth --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
   const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(summary["sparse_depth_points"], 1000);
@@ -195,23 +205,28 @@ TEST_F(EvalCli, SparseDepthDefaultsToOneThousandPoints) {
 
 TEST_F(EvalCli, BadInputsGiveOneClearLine) {
   const std::string out = " --out " + (work_dir() / "eval_bad").string();
-  expect_one_error_line(run_cli("eval --baseline oracle --data " + (work_dir() / "missing").string() + out),
-                        "not a folder");
-  fs::create_directories(work_dir() / "empty");
-  expect_one_error_line(run_cli("eval --baseline oracle --data " + (work_dir() / "empty").string() + out),
-                        "no samples found");
-  std::ofstream(work_dir() / "garbage.safetensors") << "this is not a safetensors file";
   expect_one_error_line(
-      run_cli("eval --model " + (work_dir() / "garbage.safetensors").string() + " --data " + data() + out),
-      "garbage.safetensors");
-  expect_one_error_line(run_cli("eval --model " + (work_dir() / "nope.safetensors").string() + " --data " + data() + out),
+      run_cli("eval --baseline oracle --data " + (work_dir() / "missing").string() + out),
+      "not a folder");
+  fs::create_directories(work_dir() / "empty");
+  expect_one_error_line(
+      run_cli("eval --baseline oracle --data " + (work_dir() / "empty").string() + out),
+      "no samples found");
+  std::ofstream(work_dir() / "garbage.safetensors") << "this is not a safetensors file";
+  expect_one_error_line(run_cli("eval --model " + (work_dir() / "garbage.safetensors").string() +
+                                " --data " + data() + out),
+                        "garbage.safetensors");
+  expect_one_error_line(run_cli("eval --model " + (work_dir() / "nope.safetensors").string() +
+                                " --data " + data() + out),
                         "nope.safetensors");
   expect_one_error_line(
-      run_cli("eval --baseline oracle --model " + (work_dir() / "tiny.safetensors").string() + " --data " + data() + out),
+      run_cli("eval --baseline oracle --model " + (work_dir() / "tiny.safetensors").string() +
+              " --data " + data() + out),
       "exactly one of");
   expect_one_error_line(run_cli("eval --baseline best --data " + data() + out), "--baseline best");
-  expect_one_error_line(run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() + " --set nope" + out),
-                        "no set \"nope\"");
+  expect_one_error_line(
+      run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() + " --set nope" + out),
+      "no set \"nope\"");
   EXPECT_FALSE(fs::exists(work_dir() / "eval_bad" / "summary.json"));
 }
 

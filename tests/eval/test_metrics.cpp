@@ -57,8 +57,9 @@ TEST(Metrics, ScaleErrorIsRemovedByScaleInvariantAlignment) {
   const Metrics m = compute_metrics(predict(0.37 * gt.depth, 0.37 * gt.points, false), gt);
   EXPECT_EQ(m.entries.count("depth_metric"), 0u);
   EXPECT_EQ(m.entries.count("points_metric"), 0u);
-  for (const char* name : {"depth_scale_invariant", "depth_affine_invariant", "disparity_affine_invariant",
-                           "points_scale_invariant", "points_affine_invariant"}) {
+  for (const char* name :
+       {"depth_scale_invariant", "depth_affine_invariant", "disparity_affine_invariant",
+        "points_scale_invariant", "points_affine_invariant"}) {
     SCOPED_TRACE(name);
     EXPECT_NEAR(m.entries.at(name).rel, 0.0, 1e-5);
     EXPECT_EQ(m.entries.at(name).delta1, 1.0);
@@ -103,20 +104,23 @@ TEST(Metrics, NonFinitePredictionGivesNaNForItsEntries) {
   at::Tensor points = gt.points.clone();
   points[25][35][1] = INFINITY;
   const Metrics m = compute_metrics(predict(depth, points, true), gt);
-  for (const char* name : kMetricEntries) EXPECT_TRUE(std::isnan(m.entries.at(name).delta1)) << name;
+  for (const char* name : kMetricEntries)
+    EXPECT_TRUE(std::isnan(m.entries.at(name).delta1)) << name;
   EXPECT_TRUE(has_warning(m, "predicted depth has NaN/inf"));
   EXPECT_TRUE(has_warning(m, "predicted points have NaN/inf"));
 }
 
 TEST(Metrics, ConstantAndZeroPredictions) {
   const GroundTruth gt = scene(false);
-  const Metrics constant = compute_metrics(predict(at::full_like(gt.depth, 3.0), at::Tensor(), false), gt);
+  const Metrics constant =
+      compute_metrics(predict(at::full_like(gt.depth, 3.0), at::Tensor(), false), gt);
   EXPECT_TRUE(std::isnan(constant.entries.at("disparity_affine_invariant").rel));
   EXPECT_TRUE(has_warning(constant, "disparity_affine_invariant"));
   EXPECT_TRUE(std::isfinite(constant.entries.at("depth_scale_invariant").rel));
   EXPECT_TRUE(std::isnan(constant.entries.at("depth_affine_invariant").rel));  // scale undetermined
 
-  const Metrics zeros = compute_metrics(predict(at::zeros_like(gt.depth), at::zeros_like(gt.points), false), gt);
+  const Metrics zeros =
+      compute_metrics(predict(at::zeros_like(gt.depth), at::zeros_like(gt.points), false), gt);
   for (const auto& entry : zeros.entries) EXPECT_TRUE(std::isnan(entry.second.rel)) << entry.first;
   EXPECT_TRUE(has_warning(zeros, "depth_scale_invariant"));
   EXPECT_TRUE(has_warning(zeros, "points_scale_invariant"));
@@ -143,7 +147,8 @@ TEST(Metrics, InvalidGroundTruthInsideMaskGivesNaN) {
 
 TEST(Metrics, RejectsMismatchedShapes) {
   const GroundTruth gt = scene(true);
-  EXPECT_THROW(compute_metrics(predict(gt.depth.t(), at::Tensor(), true), gt), std::invalid_argument);
+  EXPECT_THROW(compute_metrics(predict(gt.depth.t(), at::Tensor(), true), gt),
+               std::invalid_argument);
   EXPECT_THROW(compute_metrics(predict(gt.depth, gt.depth, true), gt), std::invalid_argument);
   GroundTruth bad = gt;
   bad.mask = gt.mask.to(at::kByte);
@@ -157,7 +162,8 @@ TEST(Metrics, Float64MatchesFloat32) {
   gt64.points = gt.points.to(at::kDouble);
   const at::Tensor depth = 0.8 * gt.depth + 0.3 * at::sin(5 * gt.depth);
   const Metrics m32 = compute_metrics(predict(depth, gt.points * 1.1, true), gt);
-  const Metrics m64 = compute_metrics(predict(depth.to(at::kDouble), gt64.points * 1.1, true), gt64);
+  const Metrics m64 =
+      compute_metrics(predict(depth.to(at::kDouble), gt64.points * 1.1, true), gt64);
   for (const char* name : kMetricEntries)
     EXPECT_NEAR(m32.entries.at(name).rel, m64.entries.at(name).rel, 1e-5) << name;
 }
@@ -166,7 +172,8 @@ TEST(Subsample, UpsamplingStaysInsideTheImageAndOnValidPixels) {
   const at::Tensor mask = at::rand({30, 200}) < 0.5;
   const Subsample sub = mask_aware_subsample(mask);
   ASSERT_EQ(sub.index.sizes(), at::IntArrayRef({2, 64, 64}));
-  const at::Tensor rows = sub.index[0].masked_select(sub.mask), cols = sub.index[1].masked_select(sub.mask);
+  const at::Tensor rows = sub.index[0].masked_select(sub.mask),
+                   cols = sub.index[1].masked_select(sub.mask);
   EXPECT_TRUE((rows < 30).all().item<bool>());
   EXPECT_TRUE((cols < 200).all().item<bool>());
   EXPECT_TRUE(mask.index({rows, cols}).all().item<bool>());

@@ -91,7 +91,9 @@ TEST_P(MetricsFixture, AlignmentsMatchMoGe) {
   for (const auto& [name, value] : in.expected["alignment"].items()) {
     SCOPED_TRACE(name);
     const auto& got = metrics.alignment.at(name);
-    auto near = [](double a, double b) { return std::abs(a - b) <= 1e-4 * std::max(std::abs(b), 1e-3); };
+    auto near = [](double a, double b) {
+      return std::abs(a - b) <= 1e-4 * std::max(std::abs(b), 1e-3);
+    };
     if (value.contains("scale")) EXPECT_PRED2(near, got.scale, value["scale"].get<double>());
     if (value.contains("clamp_min_disparity"))
       EXPECT_PRED2(near, got.clamp_min_disparity, value["clamp_min_disparity"].get<double>());
@@ -99,7 +101,8 @@ TEST_P(MetricsFixture, AlignmentsMatchMoGe) {
       const auto& shift = value["shift"];
       if (shift.is_array()) {
         ASSERT_EQ(got.shift.size(), shift.size());
-        for (size_t c = 0; c < shift.size(); ++c) EXPECT_PRED2(near, got.shift[c], shift[c].get<double>());
+        for (size_t c = 0; c < shift.size(); ++c)
+          EXPECT_PRED2(near, got.shift[c], shift[c].get<double>());
       } else {
         ASSERT_EQ(got.shift.size(), 1u);
         EXPECT_PRED2(near, got.shift[0], shift.get<double>());

@@ -52,9 +52,12 @@ RunResult* RunnerTest::oracle_ = nullptr;
 
 TEST(RunnerSplits, FollowTheCameraModel) {
   EXPECT_EQ(camera_split(camera::parse_camera("PINHOLE 32 24 24 24 16 12")), Split::kSmallFov);
-  EXPECT_EQ(camera_split(camera::parse_camera("OPENCV 32 24 24 24 16 12 -0.1 0.01 0 0")), Split::kSmallFov);
-  EXPECT_EQ(camera_split(camera::parse_camera("OPENCV_FISHEYE 32 32 10 10 16 16 0 0 0 0")), Split::kLargeFov);
-  EXPECT_EQ(camera_split(camera::parse_camera("DOUBLE_SPHERE 32 32 10 10 16 16 -0.2 0.6")), Split::kLargeFov);
+  EXPECT_EQ(camera_split(camera::parse_camera("OPENCV 32 24 24 24 16 12 -0.1 0.01 0 0")),
+            Split::kSmallFov);
+  EXPECT_EQ(camera_split(camera::parse_camera("OPENCV_FISHEYE 32 32 10 10 16 16 0 0 0 0")),
+            Split::kLargeFov);
+  EXPECT_EQ(camera_split(camera::parse_camera("DOUBLE_SPHERE 32 32 10 10 16 16 -0.2 0.6")),
+            Split::kLargeFov);
   EXPECT_EQ(camera_split(camera::parse_camera("EQUIRECTANGULAR 32 16")), Split::kPanorama);
   EXPECT_EQ(split_name(Split::kPanorama), "360°");
 }
@@ -116,7 +119,8 @@ TEST_F(RunnerTest, OracleScoresPerfectlyOnEverySplitAndMode) {
 
 TEST_F(RunnerTest, ConstantDistanceScoresWorseThanTheOracle) {
   RunOptions options;
-  const RunResult result = run_benchmark(constant_distance_predictor(5.0), {root_->string()}, options);
+  const RunResult result =
+      run_benchmark(constant_distance_predictor(5.0), {root_->string()}, options);
   for (const Split split : kSplits) {
     const auto& entries = result.summary.scores.at(split_name(split)).at("none").entries;
     SCOPED_TRACE(split_name(split));
@@ -131,10 +135,13 @@ TEST_F(RunnerTest, ConstantDistanceTakesTheMedianOfTheSparseDepth) {
   const auto sample = data::read_sample((*root_ / "sfov" / "1").string());
   const EvalSample item{"d", "sfov/1", Split::kSmallFov, sample};
   const Conditions conditions = make_conditions(sample, Mode{false, true}, 9, 5);
-  const double median = conditions.sparse_depth.masked_select(conditions.sparse_depth > 0).median().item<double>();
+  const double median =
+      conditions.sparse_depth.masked_select(conditions.sparse_depth > 0).median().item<double>();
   const Predictor constant = constant_distance_predictor(5.0);
-  EXPECT_TRUE(at::equal(constant.predict(item, conditions).distance, at::full_like(sample.distance, median)));
-  EXPECT_TRUE(at::equal(constant.predict(item, Conditions{}).distance, at::full_like(sample.distance, 5.0)));
+  EXPECT_TRUE(at::equal(constant.predict(item, conditions).distance,
+                        at::full_like(sample.distance, median)));
+  EXPECT_TRUE(at::equal(constant.predict(item, Conditions{}).distance,
+                        at::full_like(sample.distance, 5.0)));
 }
 
 TEST(RunnerScoring, PanoramaDepthIsTheDistanceSoPointsBehindTheCameraCount) {
@@ -143,15 +150,17 @@ TEST(RunnerScoring, PanoramaDepthIsTheDistanceSoPointsBehindTheCameraCount) {
   // recovered by the scale-invariant entries.
   const auto camera = camera::parse_camera("EQUIRECTANGULAR 32 16");
   const auto rays = camera.ray_map(at::kFloat);
-  data::Sample sample{camera, at::zeros({16, 32, 3}), at::full({16, 32}, 2.0f), at::ones({16, 32}, at::kBool), true};
+  data::Sample sample{camera, at::zeros({16, 32, 3}), at::full({16, 32}, 2.0f),
+                      at::ones({16, 32}, at::kBool), true};
   GeometryPrediction prediction{rays.rays, at::full({16, 32}, 3.0f), 1.0, true};
   const Metrics metrics = score_sample(sample, Split::kPanorama, prediction);
   EXPECT_EQ(metrics.num_valid_pixels, 16 * 32);
   EXPECT_NEAR(metrics.entries.at("depth_scale_invariant").rel, 0.0, 1e-6);
   EXPECT_NEAR(metrics.entries.at("points_scale_invariant").rel, 0.0, 1e-6);
   EXPECT_NEAR(metrics.entries.at("depth_metric").rel, 0.5, 1e-6);
-  EXPECT_THROW(score_sample(sample, Split::kPanorama, GeometryPrediction{rays.rays, at::ones({8, 8})}),
-               std::invalid_argument);
+  EXPECT_THROW(
+      score_sample(sample, Split::kPanorama, GeometryPrediction{rays.rays, at::ones({8, 8})}),
+      std::invalid_argument);
 }
 
 TEST(RunnerScoring, PointMapsGiveRaysAndDistances) {
@@ -159,7 +168,8 @@ TEST(RunnerScoring, PointMapsGiveRaysAndDistances) {
                                         std::numeric_limits<float>::quiet_NaN(), 0.0f, 1.0f})
                                 .reshape({1, 4, 3});
   const GeometryPrediction prediction = prediction_from_points(points, true);
-  EXPECT_TRUE(at::allclose(prediction.distance, at::tensor({2.0f, 5.0f, 0.0f, 0.0f}).reshape({1, 4})));
+  EXPECT_TRUE(
+      at::allclose(prediction.distance, at::tensor({2.0f, 5.0f, 0.0f, 0.0f}).reshape({1, 4})));
   EXPECT_TRUE(at::allclose(prediction.rays[0][1], at::tensor({0.6f, 0.8f, 0.0f})));
   EXPECT_TRUE(at::equal(prediction.rays[0][3], at::zeros({3})));
   EXPECT_FALSE(at::isnan(prediction.rays).any().item<bool>());
@@ -173,8 +183,9 @@ TEST(RunnerScoring, OmniPointModelUsesAKnownCameraAsItIs) {
   Predictor predictor = omnipoint_predictor(model::OmniPointModel(config), "tiny", 12);
   const camera::Camera fisheye = camera::parse_camera("OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0");
   const camera::Rays truth = fisheye.ray_map(at::kFloat);
-  const EvalSample item{"data", "0000", Split::kLargeFov,
-                        data::Sample{fisheye, at::rand({28, 28, 3}), at::ones({28, 28}), truth.valid, true}};
+  const EvalSample item{
+      "data", "0000", Split::kLargeFov,
+      data::Sample{fisheye, at::rand({28, 28, 3}), at::ones({28, 28}), truth.valid, true}};
   Conditions known;
   known.rays = truth.rays;
   EXPECT_TRUE(at::allclose(predictor.predict(item, known).rays, truth.rays));
@@ -183,7 +194,8 @@ TEST(RunnerScoring, OmniPointModelUsesAKnownCameraAsItIs) {
 
 TEST_F(RunnerTest, SummaryAndTableHaveTheRightRowsAndColumns) {
   const RunResult& oracle = *oracle_;
-  const RunResult constant = run_benchmark(constant_distance_predictor(5.0), {root_->string()}, RunOptions{});
+  const RunResult constant =
+      run_benchmark(constant_distance_predictor(5.0), {root_->string()}, RunOptions{});
   const std::string table = markdown_table({oracle.summary, constant.summary});
   std::vector<std::string> lines;
   std::stringstream stream(table);
@@ -191,11 +203,14 @@ TEST_F(RunnerTest, SummaryAndTableHaveTheRightRowsAndColumns) {
   ASSERT_EQ(lines.size(), 2u + 4u + 1u);  // header, rule, 4 oracle modes, 1 constant mode
   for (const char* split : {"S.FoV", "L.FoV", "360°"})
     for (const char* column : {"depth Rel", "depth δ1", "points Rel", "points δ1", "metric δ1"})
-      EXPECT_NE(lines[0].find(std::string(split) + " " + column), std::string::npos) << split << column;
+      EXPECT_NE(lines[0].find(std::string(split) + " " + column), std::string::npos)
+          << split << column;
   EXPECT_LT(lines[0].find("S.FoV"), lines[0].find("L.FoV"));
   EXPECT_LT(lines[0].find("L.FoV"), lines[0].find("360°"));
-  EXPECT_EQ(lines[2], "| oracle (GT rays and distances) | none | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 | 0.00 | "
-                      "100.0 | 0.00 | 100.0 | 100.0 | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 |");
+  EXPECT_EQ(
+      lines[2],
+      "| oracle (GT rays and distances) | none | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 | 0.00 | "
+      "100.0 | 0.00 | 100.0 | 100.0 | 0.00 | 100.0 | 0.00 | 100.0 | 100.0 |");
   EXPECT_EQ(lines[5].rfind("| oracle (GT rays and distances) | +K+D |", 0), 0u);
   EXPECT_EQ(lines[6].rfind("| constant distance 5 m (GT rays) | none |", 0), 0u);
 
@@ -207,7 +222,8 @@ TEST_F(RunnerTest, SummaryAndTableHaveTheRightRowsAndColumns) {
   EXPECT_EQ(json["scores"]["L.FoV"]["none"]["samples"], 2);
   for (const auto& record : oracle.records) {
     const auto line = nlohmann::json::parse(record);
-    EXPECT_TRUE(line.contains("split") && line.contains("mode") && line.contains("entries")) << record;
+    EXPECT_TRUE(line.contains("split") && line.contains("mode") && line.contains("entries"))
+        << record;
   }
 }
 
@@ -223,14 +239,16 @@ TEST_F(RunnerTest, ModesAPredictorCannotTakeAreReportedNotRun) {
 TEST_F(RunnerTest, NonFinitePredictionsAreExcludedAndCounted) {
   Predictor broken = oracle_predictor();
   broken.predict = [](const EvalSample& item, const Conditions&) {
-    GeometryPrediction p{item.sample.camera.ray_map(at::kFloat).rays,
-                         at::full_like(item.sample.distance, std::numeric_limits<float>::quiet_NaN()), 1.0, true};
+    GeometryPrediction p{
+        item.sample.camera.ray_map(at::kFloat).rays,
+        at::full_like(item.sample.distance, std::numeric_limits<float>::quiet_NaN()), 1.0, true};
     if (item.id.find("/0") == std::string::npos) p.distance = item.sample.distance;
     return p;
   };
   const RunResult result = run_benchmark(broken, {root_->string()}, RunOptions{});
   for (const Split split : kSplits) {
-    const AveragedScore& score = result.summary.scores.at(split_name(split)).at("none").entries.at("depth_scale_invariant");
+    const AveragedScore& score =
+        result.summary.scores.at(split_name(split)).at("none").entries.at("depth_scale_invariant");
     EXPECT_EQ(score.count, 1);
     EXPECT_EQ(score.excluded, 1);
     EXPECT_NEAR(score.rel, 0.0, 1e-5);
@@ -239,9 +257,11 @@ TEST_F(RunnerTest, NonFinitePredictionsAreExcludedAndCounted) {
 }
 
 TEST(RunnerBadInputs, MissingOrEmptyDatasetsAreErrors) {
-  const fs::path empty = fs::temp_directory_path() / ("omnipoint_eval_empty_" + std::to_string(::getpid()));
+  const fs::path empty =
+      fs::temp_directory_path() / ("omnipoint_eval_empty_" + std::to_string(::getpid()));
   fs::create_directories(empty / "nothing_here");
-  EXPECT_THROW(run_benchmark(oracle_predictor(), {(empty / "missing").string()}, RunOptions{}), std::runtime_error);
+  EXPECT_THROW(run_benchmark(oracle_predictor(), {(empty / "missing").string()}, RunOptions{}),
+               std::runtime_error);
   try {
     run_benchmark(oracle_predictor(), {empty.string()}, RunOptions{});
     FAIL() << "no error for an empty dataset";
@@ -268,7 +288,8 @@ TEST(RunnerBadInputs, BadSamplesAndMissingPredictionsAreSkippedAndCounted) {
   EXPECT_EQ(result.summary.skipped.at("missing prediction"), 1);
   EXPECT_EQ(result.summary.scores.size(), 1u);
   int skip_records = 0;
-  for (const auto& record : result.records) skip_records += nlohmann::json::parse(record).contains("skipped");
+  for (const auto& record : result.records)
+    skip_records += nlohmann::json::parse(record).contains("skipped");
   EXPECT_EQ(skip_records, 2);
   fs::remove_all(root);
 }

@@ -14,11 +14,14 @@ namespace {
 
 // Σ w|s x + t − y| in double.
 double l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& w, double s, double t) {
-  return (w.to(at::kDouble) * (s * x.to(at::kDouble) + t - y.to(at::kDouble)).abs()).sum().item<double>();
+  return (w.to(at::kDouble) * (s * x.to(at::kDouble) + t - y.to(at::kDouble)).abs())
+      .sum()
+      .item<double>();
 }
 
 // Exhaustive minimum of min_a Σ min(trunc, w|a x − y|) over the candidate ratios.
-double truncated_reference(const at::Tensor& x, const at::Tensor& y, const at::Tensor& w, double trunc) {
+double truncated_reference(const at::Tensor& x, const at::Tensor& y, const at::Tensor& w,
+                           double trunc) {
   double best = std::numeric_limits<double>::infinity();
   for (int64_t i = 0; i < x.size(0); ++i) {
     if (x[i].item<double>() == 0) continue;
@@ -50,7 +53,9 @@ Instance random_instance(int64_t n, bool tied, at::ScalarType dtype) {
   return in;
 }
 
-double tolerance(at::ScalarType dtype, double scale) { return (dtype == at::kFloat ? 2e-5 : 1e-10) * (1 + scale); }
+double tolerance(at::ScalarType dtype, double scale) {
+  return (dtype == at::kFloat ? 2e-5 : 1e-10) * (1 + scale);
+}
 
 }  // namespace
 
@@ -71,14 +76,16 @@ TEST(ScaleFit, NegativeSourceAndExactScale) {
 
 TEST(ScaleFit, BatchedWithMasksIgnoresMaskedGarbage) {
   at::manual_seed(1);
-  const at::Tensor x = at::rand({3, 50}, at::kDouble) + 0.5, y = 3 * x + 0.1 * at::randn({3, 50}, at::kDouble);
+  const at::Tensor x = at::rand({3, 50}, at::kDouble) + 0.5,
+                   y = 3 * x + 0.1 * at::randn({3, 50}, at::kDouble);
   const at::Tensor w = at::rand({3, 50}, at::kDouble);
   at::Tensor mask = at::rand({3, 50}) < 0.6;
   mask[2].fill_(false);
   const at::Tensor x_bad = at::where(mask, x, at::full({}, std::nan(""), at::kDouble));
   const ScaleFit fit = fit_scale_l1(x_bad, y, w, mask);
   for (int b = 0; b < 2; ++b) {
-    const ScaleFit one = fit_scale_l1(x[b].masked_select(mask[b]), y[b].masked_select(mask[b]), w[b].masked_select(mask[b]));
+    const ScaleFit one = fit_scale_l1(x[b].masked_select(mask[b]), y[b].masked_select(mask[b]),
+                                      w[b].masked_select(mask[b]));
     EXPECT_DOUBLE_EQ(fit.scale[b].item<double>(), one.scale.item<double>());
   }
   EXPECT_TRUE(std::isnan(fit.scale[2].item<double>()));  // empty mask
@@ -132,7 +139,8 @@ TEST(AffineFit, FastEqualsBruteForceOnRandomInstances) {
         EXPECT_TRUE(std::isnan(fast.scale.item<double>()));
         continue;
       }
-      const double best = l1(in.x, in.y, in.w, brute.scale.item<double>(), brute.shift.item<double>());
+      const double best =
+          l1(in.x, in.y, in.w, brute.scale.item<double>(), brute.shift.item<double>());
       const double got = l1(in.x, in.y, in.w, fast.scale.item<double>(), fast.shift.item<double>());
       EXPECT_NEAR(got, best, tolerance(dtype, best));
       EXPECT_NEAR(fast.loss.item<double>(), got, tolerance(dtype, got));
@@ -146,11 +154,13 @@ TEST(AffineFit, FastEqualsBruteForceOnRandomInstances) {
 
 TEST(AffineFit, DegenerateInputsStayFinite) {
   const at::Tensor w = at::ones({6}, at::kDouble);
-  const at::Tensor constant_x = at::full({6}, 2.0, at::kDouble), y = at::tensor({1.0, 5.0, 2.0, 2.0, 9.0, 3.0});
+  const at::Tensor constant_x = at::full({6}, 2.0, at::kDouble),
+                   y = at::tensor({1.0, 5.0, 2.0, 2.0, 9.0, 3.0});
   const AffineFit fit = fit_affine_l1(constant_x, y, w);  // any scale is optimal
   EXPECT_TRUE(std::isfinite(fit.scale.item<double>()));
   EXPECT_NEAR(fit.loss.item<double>(), l1(constant_x, y, w, 0.0, 2.0), 1e-12);  // the median of y
-  const AffineFit single = fit_affine_l1(at::tensor({1.0}), at::tensor({4.0}), at::ones({1}, at::kDouble));
+  const AffineFit single =
+      fit_affine_l1(at::tensor({1.0}), at::tensor({4.0}), at::ones({1}, at::kDouble));
   EXPECT_NEAR(single.loss.item<double>(), 0.0, 1e-12);
   const AffineFit empty = fit_affine_l1(y, y, w, at::zeros({6}, at::kBool));
   EXPECT_TRUE(std::isnan(empty.scale.item<double>()));
@@ -164,31 +174,36 @@ TEST(Alignment, NoSamplesGiveNaN) {
   EXPECT_TRUE(at::isnan(fit_affine_l1(none, none, none).scale).all().item<bool>());
   EXPECT_TRUE(at::isnan(fit_affine_l1_brute_force(none, none, none).shift).all().item<bool>());
   EXPECT_TRUE(at::isnan(fit_points_affine_l1(none3, none3, none).shift).all().item<bool>());
-  EXPECT_TRUE(at::isnan(fit_points_affine_l1_anchored(none3, none3, none).scale).all().item<bool>());
+  EXPECT_TRUE(
+      at::isnan(fit_points_affine_l1_anchored(none3, none3, none).scale).all().item<bool>());
   EXPECT_TRUE(at::isnan(fit_points_shift_l1(none3, none3, none)).all().item<bool>());
   EXPECT_TRUE(at::isnan(fit_points_scale_l1(none3, none3, none).scale).all().item<bool>());
 }
 
 TEST(AffineFit, BatchedWithMasksEqualsPerItem) {
   at::manual_seed(4);
-  const at::Tensor x = at::rand({4, 200}, at::kFloat) + 0.5, y = 0.7 * x - 2 + 0.05 * at::randn({4, 200});
+  const at::Tensor x = at::rand({4, 200}, at::kFloat) + 0.5,
+                   y = 0.7 * x - 2 + 0.05 * at::randn({4, 200});
   const at::Tensor w = at::rand({4, 200}), mask = at::rand({4, 200}) < 0.7;
   const AffineFit fit = fit_affine_l1(x, y, w, mask);
   for (int b = 0; b < 4; ++b) {
-    const AffineFit one = fit_affine_l1_brute_force(x[b].masked_select(mask[b]), y[b].masked_select(mask[b]),
-                                                    w[b].masked_select(mask[b]));
-    EXPECT_NEAR(fit.loss[b].item<double>(), one.loss.item<double>(), 1e-4 * one.loss.item<double>());
+    const AffineFit one = fit_affine_l1_brute_force(
+        x[b].masked_select(mask[b]), y[b].masked_select(mask[b]), w[b].masked_select(mask[b]));
+    EXPECT_NEAR(fit.loss[b].item<double>(), one.loss.item<double>(),
+                1e-4 * one.loss.item<double>());
   }
 }
 
 TEST(PointsFit, ShiftIsPerAxisWeightedMedian) {
   at::manual_seed(5);
-  const at::Tensor p = at::randn({30, 3}, at::kDouble), g = p + at::tensor({0.5, -1.0, 2.0}) + 0.01 * at::randn({30, 3}, at::kDouble);
+  const at::Tensor p = at::randn({30, 3}, at::kDouble),
+                   g = p + at::tensor({0.5, -1.0, 2.0}) + 0.01 * at::randn({30, 3}, at::kDouble);
   const at::Tensor w = at::rand({30}, at::kDouble);
   const at::Tensor shift = fit_points_shift_l1(p, g, w);
   ASSERT_EQ(shift.sizes(), at::IntArrayRef({3}));
   for (int c = 0; c < 3; ++c) {
-    const ScaleFit axis = fit_scale_l1(at::ones({30}, at::kDouble), g.select(1, c) - p.select(1, c), w);
+    const ScaleFit axis =
+        fit_scale_l1(at::ones({30}, at::kDouble), g.select(1, c) - p.select(1, c), w);
     EXPECT_DOUBLE_EQ(shift[c].item<double>(), axis.scale.item<double>());
   }
 }
@@ -206,7 +221,8 @@ TEST(PointsFit, GlobalAffineEqualsBreakpointSearch) {
   at::manual_seed(6);
   for (int trial = 0; trial < 12; ++trial) {
     const int64_t n = 4 + trial;
-    at::Tensor p = at::randn({n, 3}, at::kDouble), g = 1.3 * p + at::randn({3}, at::kDouble) + 0.2 * at::randn({n, 3}, at::kDouble);
+    at::Tensor p = at::randn({n, 3}, at::kDouble),
+               g = 1.3 * p + at::randn({3}, at::kDouble) + 0.2 * at::randn({n, 3}, at::kDouble);
     if (trial % 3 == 0) p = p.round(), g = g.round();  // ties
     const at::Tensor w = at::rand({n}, at::kDouble) + 0.1;
     auto objective = [&](double s) {
@@ -235,7 +251,8 @@ TEST(PointsFit, PrunedAnchoredEqualsBruteForce) {
   for (const auto dtype : {at::kDouble, at::kFloat}) {
     for (int trial = 0; trial < 16; ++trial) {
       const int64_t n = 3 + 37 * trial;
-      at::Tensor p = at::rand({n, 3}, at::kDouble) * 4 - 2, g = 0.8 * p + at::randn({3}, at::kDouble);
+      at::Tensor p = at::rand({n, 3}, at::kDouble) * 4 - 2,
+                 g = 0.8 * p + at::randn({3}, at::kDouble);
       g = g + 0.1 * at::randn({n, 3}, at::kDouble) * (at::rand({n, 1}) < 0.1).to(at::kDouble) * 30;
       if (trial % 4 == 3) p = p.round(), g = g.round();
       const at::Tensor w = (at::rand({n}, at::kDouble) + 0.1).to(dtype);
@@ -259,7 +276,8 @@ TEST(PointsFit, TruncatedScaleZShiftEqualsVertexSearch) {
   for (int trial = 0; trial < 10; ++trial) {
     const int64_t n = 4 + trial % 4;
     const at::Tensor p = at::rand({n, 3}, at::kDouble) + 0.2;
-    at::Tensor g = 1.6 * p + at::tensor({0.0, 0.0, 0.7}, at::kDouble) + 0.05 * at::randn({n, 3}, at::kDouble);
+    at::Tensor g =
+        1.6 * p + at::tensor({0.0, 0.0, 0.7}, at::kDouble) + 0.05 * at::randn({n, 3}, at::kDouble);
     g[0][1] = 9.0;  // an outlier the truncation ignores
     const at::Tensor w = at::rand({n}, at::kDouble) + 0.5;
     const double trunc = 0.3;
@@ -303,7 +321,8 @@ TEST(Alignment, CudaMatchesCpu) {
   const Instance in = random_instance(500, false, at::kFloat);
   const AffineFit cpu = fit_affine_l1(in.x, in.y, in.w);
   const AffineFit gpu = fit_affine_l1(in.x.cuda(), in.y.cuda(), in.w.cuda());
-  EXPECT_NEAR(gpu.loss.cpu().item<double>(), cpu.loss.item<double>(), 1e-4 * cpu.loss.item<double>());
+  EXPECT_NEAR(gpu.loss.cpu().item<double>(), cpu.loss.item<double>(),
+              1e-4 * cpu.loss.item<double>());
   const at::Tensor p = at::rand({300, 3}) + 1, g = 2 * p + 0.1 * at::randn({300, 3});
   const at::Tensor w = at::rand({300});
   const AffineFit a = fit_points_affine_l1_anchored(p, g, w);

@@ -23,7 +23,8 @@ TEST(Colormap, MatchesOpenCV) {
     double worst = 0;
     for (int i = 0; i < 256; ++i)
       for (int c = 0; c < 3; ++c)
-        worst = std::max(worst, std::abs(rgb[i][c].item<double>() - bgr.at<cv::Vec3b>(0, i)[2 - c]));
+        worst =
+            std::max(worst, std::abs(rgb[i][c].item<double>() - bgr.at<cv::Vec3b>(0, i)[2 - c]));
     EXPECT_LE(worst, 3.0) << static_cast<int>(ours);
   }
 }

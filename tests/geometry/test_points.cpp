@@ -18,7 +18,9 @@ at::Tensor pinhole_directions(int64_t h, int64_t w, double f, at::ScalarType dty
   return at::stack({grid[1], grid[0], at::ones({h, w}, opts)}, -1);
 }
 
-at::Tensor unit(const at::Tensor& v) { return v / v.norm(2, -1, true); }
+at::Tensor unit(const at::Tensor& v) {
+  return v / v.norm(2, -1, true);
+}
 
 }  // namespace
 
@@ -38,7 +40,8 @@ TEST(Points, RaysDistanceRoundTrip) {
 }
 
 TEST(Points, ZeroAndNonFinitePointsAreInvalidWithoutNaN) {
-  auto points = at::tensor({0.0, 0.0, 0.0, NAN, 1.0, 1.0, INFINITY, 0.0, 0.0, 0.0, 0.0, -2.0}).view({4, 3});
+  auto points =
+      at::tensor({0.0, 0.0, 0.0, NAN, 1.0, 1.0, INFINITY, 0.0, 0.0, 0.0, 0.0, -2.0}).view({4, 3});
   auto r = rays_from_points(points);
   EXPECT_FALSE(r.valid[0].item<bool>());
   EXPECT_FALSE(r.valid[1].item<bool>());
@@ -64,11 +67,13 @@ TEST(Points, PinholeDepthDistanceClosedForm) {
   // d = z · |K⁻¹[u, v, 1]| for a pinhole camera.
   EXPECT_TRUE(at::allclose(result.distance, depth * dirs.norm(2, -1), 1e-12, 1e-12));
   // Back to planar depth through the points.
-  EXPECT_TRUE(at::allclose(planar_depth(points_from_rays(rays, result.distance)), depth, 1e-12, 1e-12));
+  EXPECT_TRUE(
+      at::allclose(planar_depth(points_from_rays(rays, result.distance)), depth, 1e-12, 1e-12));
 }
 
 TEST(Points, DistanceFromDepthRejectsSidewaysAndBackwardRays) {
-  auto rays = at::tensor({1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0}).view({4, 3});
+  auto rays =
+      at::tensor({1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0}).view({4, 3});
   auto depth = at::tensor({2.0, -2.0, -1.0, 3.0});
   auto result = distance_from_planar_depth(depth, rays);
   EXPECT_TRUE(at::equal(result.valid, at::tensor({0, 0, 0, 1}).to(at::kBool)));
@@ -99,7 +104,8 @@ TEST(Points, SphereNormalsAndBehindTheCamera) {
   auto lon = (at::arange(w, opts) + 0.5) / w * 2 * M_PI - M_PI;
   auto lat = M_PI / 2 - (at::arange(h, opts) + 0.5) / h * M_PI;
   auto grid = at::meshgrid({lat, lon}, "ij");
-  auto rays = at::stack({grid[0].cos() * grid[1].sin(), -grid[0].sin(), grid[0].cos() * grid[1].cos()}, -1);
+  auto rays =
+      at::stack({grid[0].cos() * grid[1].sin(), -grid[0].sin(), grid[0].cos() * grid[1].cos()}, -1);
   auto points = rays * 3.0;
   auto normals = normals_from_point_map(points);
   EXPECT_TRUE(normals.valid.all().item<bool>());
@@ -123,8 +129,10 @@ TEST(Points, SphereNormalsAndBehindTheCamera) {
   EXPECT_TRUE(at::equal(sphere.valid, hit));
   // Pixels whose four neighbours hit the sphere too (no one-sided differences).
   auto hit4 = hit.slice(0, 1, -1).slice(1, 1, -1) & hit.slice(0, 0, -2).slice(1, 1, -1) &
-              hit.slice(0, 2).slice(1, 1, -1) & hit.slice(0, 1, -1).slice(1, 0, -2) & hit.slice(0, 1, -1).slice(1, 2);
-  auto cos_err = (sphere.normals * expected).sum(-1).slice(0, 1, -1).slice(1, 1, -1).masked_select(hit4);
+              hit.slice(0, 2).slice(1, 1, -1) & hit.slice(0, 1, -1).slice(1, 0, -2) &
+              hit.slice(0, 1, -1).slice(1, 2);
+  auto cos_err =
+      (sphere.normals * expected).sum(-1).slice(0, 1, -1).slice(1, 1, -1).masked_select(hit4);
   // Largest error (8e-3 rad) next to the grazing silhouette, where curvature per pixel peaks.
   EXPECT_GT(cos_err.min().item<double>(), std::cos(0.01));
 }
@@ -151,7 +159,10 @@ TEST(Points, NormalValidityFollowsNeighbours) {
 
 TEST(Points, PointCloudFromPointMap) {
   auto points = at::arange(2 * 3 * 3, at::kFloat).view({2, 3, 3}) + 1;
-  auto image = at::tensor({0.0f, 0.5f, 1.0f, 1.2f, -0.1f, 0.25f}).view({2, 1, 3}).expand({2, 3, 3}).contiguous();
+  auto image = at::tensor({0.0f, 0.5f, 1.0f, 1.2f, -0.1f, 0.25f})
+                   .view({2, 1, 3})
+                   .expand({2, 3, 3})
+                   .contiguous();
   auto mask = at::tensor({1, 0, 1, 1, 1, 0}).to(at::kBool).view({2, 3});
   points[1][0][1] = NAN;
   auto cloud = make_point_cloud(points, image, mask);
@@ -164,5 +175,6 @@ TEST(Points, PointCloudFromPointMap) {
   EXPECT_TRUE(at::equal(kept.colors[0], at::tensor({0, 128, 255}, at::kByte)));
   EXPECT_TRUE(at::equal(kept.colors[2], at::tensor({255, 0, 64}, at::kByte)));
   EXPECT_THROW(make_point_cloud(points, image.slice(0, 0, 1), mask), std::invalid_argument);
-  EXPECT_THROW(valid_points(make_point_cloud(points.unsqueeze(0), image.unsqueeze(0))), std::invalid_argument);
+  EXPECT_THROW(valid_points(make_point_cloud(points.unsqueeze(0), image.unsqueeze(0))),
+               std::invalid_argument);
 }

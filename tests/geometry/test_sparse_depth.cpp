@@ -28,7 +28,8 @@ at::Tensor loop_reference(const at::Tensor& sparse, const SplatOptions& o) {
     for (int64_t u = 0; u < w; ++u) {
       if (a[v][u] == 0) continue;
       const double value = a[v][u] / scale;
-      const double sigma = std::min(std::max(o.sigma_per_depth * std::abs(value), o.min_sigma), std::max(r, o.min_sigma));
+      const double sigma = std::min(std::max(o.sigma_per_depth * std::abs(value), o.min_sigma),
+                                    std::max(r, o.min_sigma));
       for (int64_t y = 0; y < h; ++y)
         for (int64_t x = 0; x < w; ++x) {
           const double d2 = double((x - u) * (x - u) + (y - v) * (y - v));
@@ -121,7 +122,8 @@ TEST(SparseDepth, BatchItemsAreIndependentAndLeadingDimsKept) {
 
 TEST(SparseDepth, MatchesLoopReferenceAndFloat64MatchesFloat32) {
   auto g = at::make_generator<at::CPUGeneratorImpl>(11);
-  auto s = (at::rand({13, 16}, g, at::kDouble) * 4 + 0.2) * (at::rand({13, 16}, g, at::kDouble) < 0.08);
+  auto s =
+      (at::rand({13, 16}, g, at::kDouble) * 4 + 0.2) * (at::rand({13, 16}, g, at::kDouble) < 0.08);
   for (const auto& o : {SplatOptions{}, SplatOptions{2, 1.0, 0.5}, SplatOptions{0, 3.0, 1.0}}) {
     auto reference = loop_reference(s, o);
     auto d = splat_sparse_depth(s, {}, o);
@@ -135,7 +137,10 @@ TEST(SparseDepth, MatchesLoopReferenceAndFloat64MatchesFloat32) {
 TEST(SparseDepth, RejectsBadInputs) {
   EXPECT_THROW(splat_sparse_depth(at::zeros({5})), std::invalid_argument);
   EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}, at::kLong)), std::invalid_argument);
-  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), at::zeros({5, 4}, at::kBool)), std::invalid_argument);
-  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), {}, SplatOptions{-1, 1.0, 1.0}), std::invalid_argument);
-  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), {}, SplatOptions{3, 0.0, 1.0}), std::invalid_argument);
+  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), at::zeros({5, 4}, at::kBool)),
+               std::invalid_argument);
+  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), {}, SplatOptions{-1, 1.0, 1.0}),
+               std::invalid_argument);
+  EXPECT_THROW(splat_sparse_depth(at::zeros({5, 5}), {}, SplatOptions{3, 0.0, 1.0}),
+               std::invalid_argument);
 }

@@ -12,7 +12,9 @@ using omnipoint::camera::make_camera;
 
 namespace {
 
-at::Generator seeded(uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
+at::Generator seeded(uint64_t seed) {
+  return at::make_generator<at::CPUGeneratorImpl>(seed);
+}
 
 struct Dense {
   at::Tensor depth, valid;
@@ -20,7 +22,8 @@ struct Dense {
 
 Dense random_dense(int64_t b, int64_t h, int64_t w, double valid_share, uint64_t seed) {
   auto g = seeded(seed);
-  return {at::rand({b, h, w}, g, at::kDouble) * 20 + 0.5, at::rand({b, h, w}, g, at::kDouble) < valid_share};
+  return {at::rand({b, h, w}, g, at::kDouble) * 20 + 0.5,
+          at::rand({b, h, w}, g, at::kDouble) < valid_share};
 }
 
 }  // namespace
@@ -41,7 +44,8 @@ TEST(SparseSampling, UniformCountIsExactAndDeterministic) {
   EXPECT_FALSE(at::equal(a.valid, c.valid));
   EXPECT_EQ(sample_uniform(dense.depth, dense.valid, 0, seeded(1)).valid.sum().item<int64_t>(), 0);
   EXPECT_THROW(sample_uniform(dense.depth, dense.valid, -1, seeded(1)), std::invalid_argument);
-  EXPECT_THROW(sample_uniform(dense.depth, dense.valid.slice(0, 0, 1), 5, seeded(1)), std::invalid_argument);
+  EXPECT_THROW(sample_uniform(dense.depth, dense.valid.slice(0, 0, 1), 5, seeded(1)),
+               std::invalid_argument);
 }
 
 TEST(SparseSampling, UniformRatio) {
@@ -50,11 +54,14 @@ TEST(SparseSampling, UniformRatio) {
     auto s = sample_uniform_ratio(dense.depth, dense.valid, ratio, seeded(7));
     for (int64_t i = 0; i < 2; ++i) {
       const double available = dense.valid[i].sum().item<double>();
-      EXPECT_EQ(s.valid[i].sum().item<int64_t>(), std::max<int64_t>(1, std::llround(available * ratio)));
+      EXPECT_EQ(s.valid[i].sum().item<int64_t>(),
+                std::max<int64_t>(1, std::llround(available * ratio)));
     }
   }
-  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 0.0, seeded(1)), std::invalid_argument);
-  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 1.5, seeded(1)), std::invalid_argument);
+  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 0.0, seeded(1)),
+               std::invalid_argument);
+  EXPECT_THROW(sample_uniform_ratio(dense.depth, dense.valid, 1.5, seeded(1)),
+               std::invalid_argument);
   // Items without valid pixels give no samples.
   auto none = sample_uniform_ratio(dense.depth, at::zeros_like(dense.valid), 0.01, seeded(1));
   EXPECT_FALSE(none.valid.any().item<bool>());
@@ -63,7 +70,11 @@ TEST(SparseSampling, UniformRatio) {
 TEST(SparseSampling, UniformIsUniform) {
   // 4,000 items of 4 valid pixels (of 6), one sample each: every valid pixel ~1,000 times.
   auto depth = at::ones({4000, 2, 3});
-  auto valid = at::tensor({1, 1, 0, 1, 0, 1}).to(at::kBool).view({1, 2, 3}).expand({4000, 2, 3}).contiguous();
+  auto valid = at::tensor({1, 1, 0, 1, 0, 1})
+                   .to(at::kBool)
+                   .view({1, 2, 3})
+                   .expand({4000, 2, 3})
+                   .contiguous();
   auto s = sample_uniform(depth, valid, 1, seeded(9));
   auto hits = s.valid.sum(0).to(at::kDouble);
   EXPECT_EQ(hits[0][2].item<double>(), 0);
@@ -109,7 +120,8 @@ TEST(SparseSampling, LidarScanLinesOnAPinholeCamera) {
     const double el = (-15.0 + 2.0 * k) * M_PI / 180;
     for (int64_t j = -60; j <= 60; ++j) {
       const double az = j * M_PI / 180;
-      const double x = std::cos(el) * std::sin(az), y = -std::sin(el), z = std::cos(el) * std::cos(az);
+      const double x = std::cos(el) * std::sin(az), y = -std::sin(el),
+                   z = std::cos(el) * std::cos(az);
       const double u = f * x / z + w / 2.0, v = f * y / z + h / 2.0;
       if (u >= 1 && u < w - 1 && v >= 1 && v < h - 1) expected.push_back({u, v});
     }
@@ -117,7 +129,8 @@ TEST(SparseSampling, LidarScanLinesOnAPinholeCamera) {
   ASSERT_GT(expected.size(), 1000u);
   auto hits = s.valid.nonzero();  // (M, 2) rows, cols
   EXPECT_NEAR(static_cast<double>(hits.size(0)), static_cast<double>(expected.size()), 2 * 16);
-  auto hit_rows = hits.select(1, 0).to(at::kDouble) + 0.5, hit_cols = hits.select(1, 1).to(at::kDouble) + 0.5;
+  auto hit_rows = hits.select(1, 0).to(at::kDouble) + 0.5,
+       hit_cols = hits.select(1, 1).to(at::kDouble) + 0.5;
   int64_t matched = 0;
   for (const auto& [u, v] : expected) {
     auto d = at::maximum((hit_cols - u).abs(), (hit_rows - v).abs());
@@ -133,11 +146,13 @@ TEST(SparseSampling, LidarScanLinesOnAPinholeCamera) {
   // Batched maps with shared rays: per-item validity is respected.
   auto batch_valid = rays.valid.unsqueeze(0).repeat({2, 1, 1});
   batch_valid[1].slice(1, 0, w / 2).fill_(false);
-  auto batched = sample_lidar(depth.unsqueeze(0).expand({2, h, w}), batch_valid, rays.rays, pattern);
+  auto batched =
+      sample_lidar(depth.unsqueeze(0).expand({2, h, w}), batch_valid, rays.rays, pattern);
   EXPECT_TRUE(at::equal(batched.valid[0], s.valid));
   EXPECT_FALSE(batched.valid[1].slice(1, 0, w / 2).any().item<bool>());
   EXPECT_TRUE(at::equal(batched.valid[1].slice(1, w / 2), s.valid.slice(1, w / 2)));
-  EXPECT_THROW(sample_lidar(depth, rays.valid, rays.rays, LidarPattern{0, -1.0, 1.0, 10}), std::invalid_argument);
+  EXPECT_THROW(sample_lidar(depth, rays.valid, rays.rays, LidarPattern{0, -1.0, 1.0, 10}),
+               std::invalid_argument);
 }
 
 TEST(SparseSampling, PointsThroughACameraLandOnTheirPixels) {
@@ -150,7 +165,8 @@ TEST(SparseSampling, PointsThroughACameraLandOnTheirPixels) {
   int64_t landed = 0;
   auto expected = at::zeros({h, w}, at::kDouble);
   for (int64_t i = 0; i < 300; ++i) {
-    const double x = points[i][0].item<double>(), y = points[i][1].item<double>(), z = points[i][2].item<double>();
+    const double x = points[i][0].item<double>(), y = points[i][1].item<double>(),
+                 z = points[i][2].item<double>();
     if (z <= 0) continue;
     const double u = 50.0 * x / z + 31.0, v = 55.0 * y / z + 25.0;
     if (u < 0 || u >= w || v < 0 || v >= h) continue;
@@ -184,7 +200,8 @@ TEST(SparseSampling, ZBufferKeepsTheNearest) {
   // rasterize_nearest directly: ties keep the smallest value; off-image pixels are dropped.
   auto pixels = at::tensor({0.5, 0.5, 0.7, 0.2, 2.0, 0.5, -0.1, 0.5}, at::kDouble).view({4, 2});
   auto r = rasterize_nearest(pixels, at::tensor({2.0, 2.0, 1.0, 1.0}, at::kDouble),
-                             at::tensor({7.0, 4.0, 1.0, 1.0}, at::kDouble), at::ones({4}, at::kBool), 2, 1);
+                             at::tensor({7.0, 4.0, 1.0, 1.0}, at::kDouble),
+                             at::ones({4}, at::kBool), 2, 1);
   EXPECT_TRUE(at::equal(r.depth, at::tensor({4.0, 0.0}, at::kDouble).view({1, 2})));
   EXPECT_TRUE(at::equal(r.valid, at::tensor({1, 0}).to(at::kBool).view({1, 2})));
 }
@@ -194,7 +211,8 @@ TEST(SparseSampling, PointsBehindTheCameraLandInAPanorama) {
   // azimuth 180° (x = W · (θ / 2π + 0.5)), elevation from -y.
   const int64_t w = 360, h = 180;
   auto camera = make_camera("EQUIRECTANGULAR", w, h, {});
-  auto points = at::tensor({0.0, 0.0, -4.0, 2.0, -2.0, 0.0, 0.0, 0.0, 3.0}, at::kDouble).view({3, 3});
+  auto points =
+      at::tensor({0.0, 0.0, -4.0, 2.0, -2.0, 0.0, 0.0, 0.0, 3.0}, at::kDouble).view({3, 3});
   auto s = sparse_depth_from_points(points, camera);
   EXPECT_EQ(s.valid.sum().item<int64_t>(), 3);
   // (0, 0, -4): θ = π -> x = 360 (the seam, wraps to column 0 or 359), φ = 0 -> row 90.
@@ -213,7 +231,8 @@ TEST(SparseSampling, LidarAllAroundInAPanorama) {
   const int64_t w = 360, h = 180;
   auto camera = make_camera("EQUIRECTANGULAR", w, h, {});
   auto rays = camera.ray_map(at::kDouble);
-  auto s = sample_lidar(at::full({h, w}, 2.0, at::kDouble), rays.valid, rays.rays, LidarPattern{3, -9.5, 10.5, 90});
+  auto s = sample_lidar(at::full({h, w}, 2.0, at::kDouble), rays.valid, rays.rays,
+                        LidarPattern{3, -9.5, 10.5, 90});
   EXPECT_EQ(s.valid.sum().item<int64_t>(), 270);
   for (int64_t row : {79, 89, 99}) EXPECT_EQ(s.valid[row].sum().item<int64_t>(), 90) << row;
 }

@@ -44,7 +44,8 @@ cv::Mat make_mat(int rows, int cols, int channels, F f) {
 
 TEST(Image, ReadsEightBitColourFromOpenCV) {
   TempDir dir;
-  const auto bgr = make_mat<uchar>(5, 7, 3, [](int r, int c, int k) { return 10 * r + 2 * c + 70 * k; });
+  const auto bgr =
+      make_mat<uchar>(5, 7, 3, [](int r, int c, int k) { return 10 * r + 2 * c + 70 * k; });
   ASSERT_TRUE(cv::imwrite(dir / "c.png", bgr));
   const at::Tensor t = read_image(dir / "c.png");
   ASSERT_EQ(t.sizes(), (at::IntArrayRef{5, 7, 3}));
@@ -69,11 +70,13 @@ TEST(Image, ReadsSixteenBitGreyAndRgba) {
   const at::Tensor raw = read_image_values(dir / "g.png");
   ASSERT_EQ(raw.sizes(), (at::IntArrayRef{4, 6}));
   EXPECT_EQ(raw[3][5].item<float>(), 30035.0f);
-  const auto bgra = make_mat<uchar>(3, 3, 4, [](int, int c, int k) { return k == 3 ? 0 : 10 * c + k; });
+  const auto bgra =
+      make_mat<uchar>(3, 3, 4, [](int, int c, int k) { return k == 3 ? 0 : 10 * c + k; });
   ASSERT_TRUE(cv::imwrite(dir / "a.png", bgra));
   const at::Tensor rgb = read_image(dir / "a.png");
   ASSERT_EQ(rgb.sizes(), (at::IntArrayRef{3, 3, 3}));
-  EXPECT_FLOAT_EQ(rgb[0][2][0].item<float>(), 22 / 255.0f);  // alpha 0 is ignored, not premultiplied
+  EXPECT_FLOAT_EQ(rgb[0][2][0].item<float>(),
+                  22 / 255.0f);  // alpha 0 is ignored, not premultiplied
   const at::Tensor rgba = read_image_values(dir / "a.png");
   ASSERT_EQ(rgba.sizes(), (at::IntArrayRef{3, 3, 4}));
   EXPECT_EQ(rgba[0][2][0].item<float>(), 22.0f);
@@ -82,11 +85,13 @@ TEST(Image, ReadsSixteenBitGreyAndRgba) {
       "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x02\x00\x00\x00"
       "\x02\x08\x04\x00\x00\x00\xd8\xbf\xc5\xaf\x00\x00\x00\x12\x49\x44\x41\x54\x78\x9c\x63\xe0\xfa"
       "\x2f\xc2\xc0\x20\xd7\xa0\xf1\x1f\x00\x0c\x2f\x02\xe3\xd2\x7b\x00\x39\x00\x00\x00\x00\x49\x45"
-      "\x4e\x44\xae\x42\x60\x82", 75);
+      "\x4e\x44\xae\x42\x60\x82",
+      75);
   std::ofstream(dir / "la.png", std::ios::binary) << grey_alpha;
   const at::Tensor la = read_image(dir / "la.png");
   ASSERT_EQ(la.sizes(), (at::IntArrayRef{2, 2, 3}));
-  EXPECT_TRUE(at::allclose(la.select(2, 1), at::tensor({10.0f, 20.0f, 30.0f, 40.0f}).view({2, 2}) / 255, 0, 1e-7));
+  EXPECT_TRUE(at::allclose(la.select(2, 1),
+                           at::tensor({10.0f, 20.0f, 30.0f, 40.0f}).view({2, 2}) / 255, 0, 1e-7));
   EXPECT_TRUE(at::equal(la.select(2, 0), la.select(2, 2)));
 }
 
@@ -107,14 +112,17 @@ TEST(Image, WriteReadRoundTrips) {
 
   const at::Tensor unit = at::rand({6, 5, 3}, g, at::kDouble);
   write_image_png(dir / "f8.png", unit);
-  EXPECT_LE((read_image(dir / "f8.png").to(at::kDouble) - unit).abs().max().item<double>(), 0.5 / 255 + 1e-7);
+  EXPECT_LE((read_image(dir / "f8.png").to(at::kDouble) - unit).abs().max().item<double>(),
+            0.5 / 255 + 1e-7);
   write_image_png(dir / "f16.png", unit, 16);
-  EXPECT_LE((read_image(dir / "f16.png").to(at::kDouble) - unit).abs().max().item<double>(), 0.5 / 65535 + 1e-7);
+  EXPECT_LE((read_image(dir / "f16.png").to(at::kDouble) - unit).abs().max().item<double>(),
+            0.5 / 65535 + 1e-7);
 
   const at::Tensor rgba = at::randint(0, 256, {4, 4, 4}, g, at::kByte);
   write_image_png(dir / "rgba.png", rgba);
   EXPECT_TRUE(at::equal(read_image_values(dir / "rgba.png").to(at::kByte), rgba));
-  EXPECT_TRUE(at::allclose(read_image(dir / "rgba.png"), rgba.narrow(2, 0, 3).to(at::kFloat) / 255, 0, 1e-7));
+  EXPECT_TRUE(at::allclose(read_image(dir / "rgba.png"), rgba.narrow(2, 0, 3).to(at::kFloat) / 255,
+                           0, 1e-7));
 
   const at::Tensor mask = at::rand({5, 5}, g) > 0.5;
   write_image_png(dir / "mask.png", mask);

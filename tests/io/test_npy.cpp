@@ -40,7 +40,8 @@ void expect_parse_error(const std::string& bytes, const std::string& fragment) {
 }  // namespace
 
 TEST(Npy, RoundTripEveryDtype) {
-  const at::ScalarType types[] = {at::kFloat, at::kDouble, at::kByte, at::kBool, at::kInt, at::kLong};
+  const at::ScalarType types[] = {at::kFloat, at::kDouble, at::kByte,
+                                  at::kBool,  at::kInt,    at::kLong};
   for (auto type : types) {
     at::Tensor t = (at::rand({3, 4, 5}, at::kDouble) * 100).to(type);
     if (type == at::kBool) t = at::rand({3, 4, 5}) > 0.5;
@@ -54,8 +55,8 @@ TEST(Npy, RoundTripEveryDtype) {
 }
 
 TEST(Npy, RoundTripScalarAndEmptyAndOneDim) {
-  for (const at::Tensor& t : {at::scalar_tensor(2.5, at::kFloat), at::zeros({0, 3}),
-                              at::arange(7, at::kFloat)}) {
+  for (const at::Tensor& t :
+       {at::scalar_tensor(2.5, at::kFloat), at::zeros({0, 3}), at::arange(7, at::kFloat)}) {
     const std::string bytes = encode_npy(t);
     const at::Tensor back = parse_npy(bytes.data(), bytes.size());
     EXPECT_EQ(back.sizes(), t.sizes());
@@ -70,16 +71,15 @@ TEST(Npy, NonContiguousInputIsWrittenInLogicalOrder) {
 }
 
 TEST(Npy, ReadsNumpyWrittenFixture) {
-  const std::string path =
-      std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/input.npy";
+  const std::string path = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/input.npy";
   const at::Tensor t = read_npy(path);
   EXPECT_EQ(t.scalar_type(), at::kFloat);
   ASSERT_EQ(t.dim(), 4);
   EXPECT_EQ(t.size(1), 3);
   EXPECT_GE(t.min().item<float>(), 0.0f);
   EXPECT_LE(t.max().item<float>(), 1.0f);
-  const at::Tensor mask = read_npy(std::string(OMNIPOINT_FIXTURE_DIR) +
-                                   "/moge2_forward_a/expected_infer_mask.npy");
+  const at::Tensor mask =
+      read_npy(std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/expected_infer_mask.npy");
   EXPECT_EQ(mask.scalar_type(), at::kByte);
 }
 
@@ -94,7 +94,10 @@ TEST(Npy, WritesFileAtomically) {
   EXPECT_THROW(write_npy(path, at::zeros({2}, at::kShort)), std::invalid_argument);
   EXPECT_TRUE(at::equal(read_npy(path), t)) << "a failed write must not touch the old file";
   std::size_t entries = 0;
-  for (auto& e : fs::directory_iterator(dir)) { (void)e; ++entries; }
+  for (auto& e : fs::directory_iterator(dir)) {
+    (void)e;
+    ++entries;
+  }
   EXPECT_EQ(entries, 1u) << "no temporary files left behind";
   fs::remove_all(dir);
 }
@@ -114,11 +117,9 @@ TEST(Npy, RejectsMalformedFiles) {
       header_bytes("{'descr': '<f4', 'fortran_order': True, 'shape': (2,), }") + payload,
       "Fortran");
   expect_parse_error(
-      header_bytes("{'descr': '>f4', 'fortran_order': False, 'shape': (2,), }") + payload,
-      "dtype");
+      header_bytes("{'descr': '>f4', 'fortran_order': False, 'shape': (2,), }") + payload, "dtype");
   expect_parse_error(
-      header_bytes("{'descr': '<c8', 'fortran_order': False, 'shape': (1,), }") + payload,
-      "dtype");
+      header_bytes("{'descr': '<c8', 'fortran_order': False, 'shape': (1,), }") + payload, "dtype");
   expect_parse_error(header_bytes("{'descr': '<f4', 'shape': (2,), }") + payload, "lacks");
   expect_parse_error(
       header_bytes("{'descr': '<f4', 'fortran_order': False, 'shape': (2,-1), }") + payload,

@@ -21,7 +21,9 @@ namespace {
 const fs::path kFuzzDir = fs::path(OMNIPOINT_SOURCE_DIR) / "tests" / "fuzz";
 
 // The parser for a file, chosen by its folder: safetensors/ or npy/.
-bool is_safetensors(const fs::path& file) { return file.parent_path().filename() == "safetensors"; }
+bool is_safetensors(const fs::path& file) {
+  return file.parent_path().filename() == "safetensors";
+}
 
 void parse(const fs::path& file, bool as_safetensors) {
   const std::string bytes = omnipoint::io::read_file(file.string());
@@ -65,7 +67,8 @@ TEST(ParserCorpus, SeedsParseWithTheirParserAndNeverCrashTheOther) {
 
 TEST(ParserCorpus, MalformedFilesFailWithTheirMessage) {
   std::map<std::string, std::string> expected;  // relative path -> message fragment
-  std::istringstream lines(omnipoint::io::read_file((kFuzzDir / "malformed" / "expected_errors.txt").string()));
+  std::istringstream lines(
+      omnipoint::io::read_file((kFuzzDir / "malformed" / "expected_errors.txt").string()));
   for (std::string line; std::getline(lines, line);) {
     if (line.empty() || line[0] == '#') continue;
     const std::size_t tab = line.find('\t');
@@ -73,7 +76,8 @@ TEST(ParserCorpus, MalformedFilesFailWithTheirMessage) {
     expected[line.substr(0, tab)] = line.substr(tab + 1);
   }
   const auto files = files_under(kFuzzDir / "malformed");
-  EXPECT_EQ(files.size(), expected.size()) << "every malformed file needs a line in expected_errors.txt";
+  EXPECT_EQ(files.size(), expected.size())
+      << "every malformed file needs a line in expected_errors.txt";
   for (const fs::path& file : files) {
     SCOPED_TRACE(file.string());
     const std::string key = fs::relative(file, kFuzzDir / "malformed").string();

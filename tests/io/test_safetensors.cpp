@@ -24,7 +24,8 @@ const std::string kFixture =
 // A file from a header text and a data section, exactly as given (no padding).
 std::string make_file(const std::string& header, const std::string& data = "") {
   std::string out(8, '\0');
-  for (int i = 0; i < 8; ++i) out[i] = static_cast<char>((uint64_t{header.size()} >> (8 * i)) & 0xff);
+  for (int i = 0; i < 8; ++i)
+    out[i] = static_cast<char>((uint64_t{header.size()} >> (8 * i)) & 0xff);
   return out + header + data;
 }
 
@@ -48,8 +49,8 @@ fs::path fresh_dir(const std::string& name) {
 }  // namespace
 
 TEST(Safetensors, RoundTripEveryDtype) {
-  const at::ScalarType types[] = {at::kDouble, at::kFloat, at::kHalf,  at::kBFloat16, at::kLong,
-                                  at::kInt,    at::kShort, at::kChar,  at::kByte,     at::kBool};
+  const at::ScalarType types[] = {at::kDouble, at::kFloat, at::kHalf, at::kBFloat16, at::kLong,
+                                  at::kInt,    at::kShort, at::kChar, at::kByte,     at::kBool};
   std::map<std::string, at::Tensor> tensors;
   for (auto type : types) {
     at::Tensor t = (at::randn({3, 4, 5}, at::kDouble) * 50).to(type);
@@ -58,7 +59,8 @@ TEST(Safetensors, RoundTripEveryDtype) {
   }
   tensors["scalar"] = at::scalar_tensor(1.5, at::kFloat);
   tensors["empty"] = at::zeros({0, 7}, at::kHalf);
-  const std::string bytes = encode_safetensors(tensors, {{"format", "test"}, {"b", "\"quoted\"\n"}});
+  const std::string bytes =
+      encode_safetensors(tensors, {{"format", "test"}, {"b", "\"quoted\"\n"}});
   const SafetensorsFile back = parse_safetensors(bytes.data(), bytes.size(), "roundtrip");
   ASSERT_EQ(back.tensors.size(), tensors.size());
   for (const auto& [name, t] : tensors) {
@@ -104,7 +106,8 @@ TEST(Safetensors, FixtureReencodesToTheSameData) {
   };
   const uint64_t n0 = header_size(original), n1 = header_size(again);
   EXPECT_EQ(original.substr(8 + n0), again.substr(8 + n1));
-  EXPECT_EQ(nlohmann::json::parse(original.substr(8, n0)), nlohmann::json::parse(again.substr(8, n1)));
+  EXPECT_EQ(nlohmann::json::parse(original.substr(8, n0)),
+            nlohmann::json::parse(again.substr(8, n1)));
 }
 
 TEST(Safetensors, WriteAndReadWithConversion) {
@@ -139,10 +142,13 @@ TEST(Safetensors, MalformedFilesAreRejected) {
   expect_parse_error(make_file("{}").substr(0, 9), "runs past the end of the file");
   expect_parse_error(make_file("{\"a\":"), "header is not valid JSON");
   expect_parse_error(make_file("[1,2]"), "header is not a JSON object");
-  expect_parse_error(make_file("{" + ok_entry + "," + ok_entry + "}", eight), "duplicate key 'a' in the header");
-  expect_parse_error(make_file(R"({"a":{"dtype":"F32","dtype":"F16","shape":[2],"data_offsets":[0,8]}})", eight),
-                     "duplicate key 'dtype' in the header");
-  expect_parse_error(make_file(R"({"__metadata__":{"f":"a","f":"b"}})"), "duplicate key 'f' in the header");
+  expect_parse_error(make_file("{" + ok_entry + "," + ok_entry + "}", eight),
+                     "duplicate key 'a' in the header");
+  expect_parse_error(
+      make_file(R"({"a":{"dtype":"F32","dtype":"F16","shape":[2],"data_offsets":[0,8]}})", eight),
+      "duplicate key 'dtype' in the header");
+  expect_parse_error(make_file(R"({"__metadata__":{"f":"a","f":"b"}})"),
+                     "duplicate key 'f' in the header");
   expect_parse_error(make_file(R"({"a":{"shape":[2],"data_offsets":[0,8]}})", eight),
                      "tensor 'a': missing string field 'dtype'");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","data_offsets":[0,8]}})", eight),
@@ -151,14 +157,17 @@ TEST(Safetensors, MalformedFilesAreRejected) {
                      "missing field 'data_offsets'");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[-2],"data_offsets":[0,8]}})", eight),
                      "'shape' must hold non-negative integers");
-  expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[2.0],"data_offsets":[0,8]}})", eight),
-                     "'shape' must hold non-negative integers");
-  expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[0,"8"]}})", eight),
-                     "'data_offsets' must be two non-negative integers");
+  expect_parse_error(
+      make_file(R"({"a":{"dtype":"F32","shape":[2.0],"data_offsets":[0,8]}})", eight),
+      "'shape' must hold non-negative integers");
+  expect_parse_error(
+      make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[0,"8"]}})", eight),
+      "'data_offsets' must be two non-negative integers");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[8,0]}})", eight),
                      "end before they begin");
-  expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[0,8],"x":1}})", eight),
-                     "unexpected field 'x'");
+  expect_parse_error(
+      make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[0,8],"x":1}})", eight),
+      "unexpected field 'x'");
   expect_parse_error(make_file(R"({"a":{"dtype":"F17","shape":[2],"data_offsets":[0,8]}})", eight),
                      "unsupported dtype 'F17'");
   expect_parse_error(make_file(R"({"a":{"dtype":"U16","shape":[4],"data_offsets":[0,8]}})", eight),
@@ -166,20 +175,23 @@ TEST(Safetensors, MalformedFilesAreRejected) {
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[3],"data_offsets":[0,8]}})", eight),
                      "span 8 bytes but dtype F32 and shape [3] need 12");
   expect_parse_error(
-      make_file(R"({"a":{"dtype":"F32","shape":[4294967296,4294967296],"data_offsets":[0,8]}})", eight),
+      make_file(R"({"a":{"dtype":"F32","shape":[4294967296,4294967296],"data_offsets":[0,8]}})",
+                eight),
       "is too large");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[2],"data_offsets":[8,16]}})", eight),
                      "past the end of the data section (8 bytes)");
-  expect_parse_error(make_file("{" + ok_entry + R"(,"b":{"dtype":"F32","shape":[1],"data_offsets":[4,8]}})",
-                               eight),
-                     "tensors 'a' and 'b' overlap");
+  expect_parse_error(
+      make_file("{" + ok_entry + R"(,"b":{"dtype":"F32","shape":[1],"data_offsets":[4,8]}})",
+                eight),
+      "tensors 'a' and 'b' overlap");
   expect_parse_error(make_file(R"({"a":{"dtype":"F32","shape":[1],"data_offsets":[4,8]}})", eight),
                      "bytes [0, 4) of the data section belong to no tensor");
   expect_parse_error(make_file("{" + ok_entry + "}", eight + "xyz"),
                      "the last 3 bytes of the data section belong to no tensor");
   expect_parse_error(make_file(R"({"__metadata__":{"format":1}})"),
                      "'__metadata__' entry 'format' is not a string");
-  expect_parse_error(make_file(R"({"__metadata__":"moge2"})"), "'__metadata__' is not a JSON object");
+  expect_parse_error(make_file(R"({"__metadata__":"moge2"})"),
+                     "'__metadata__' is not a JSON object");
   expect_parse_error(make_file("{\"a\xff\":1}"), "header is not valid JSON");
   expect_parse_error(make_file(R"({"a":{"dtype":"BOOL","shape":[2],"data_offsets":[0,2]}})",
                                std::string("\x01\x07", 2)),
@@ -188,10 +200,9 @@ TEST(Safetensors, MalformedFilesAreRejected) {
 
 TEST(Safetensors, EmptyAndZeroSizedTensorsAreValid) {
   EXPECT_TRUE(parse_safetensors(make_file("{}").data(), 10, "x").tensors.empty());
-  const std::string bytes =
-      make_file(R"({"z":{"dtype":"F32","shape":[0,3],"data_offsets":[0,0]},)"
-                R"("a":{"dtype":"F32","shape":[1],"data_offsets":[0,4]}})",
-                std::string(4, '\0'));
+  const std::string bytes = make_file(R"({"z":{"dtype":"F32","shape":[0,3],"data_offsets":[0,0]},)"
+                                      R"("a":{"dtype":"F32","shape":[1],"data_offsets":[0,4]}})",
+                                      std::string(4, '\0'));
   const SafetensorsFile file = parse_safetensors(bytes.data(), bytes.size(), "x");
   EXPECT_EQ(file.tensors.at("z").sizes(), (at::IntArrayRef{0, 3}));
 }
@@ -216,16 +227,19 @@ TEST(Safetensors, BytesMatchTheReferenceWriter) {
             make_file(R"({"__metadata__":{"framework":"pt"}}     )"));
   EXPECT_EQ(encode_safetensors({}), make_file("{}      "));
   // Mixed dtypes: widest alignment first, then by name.
-  const std::string mixed = encode_safetensors(
-      {{"a", at::zeros({1}, at::kHalf)}, {"b", at::zeros({1}, at::kLong)}, {"c", at::zeros({1}, at::kFloat)}});
+  const std::string mixed = encode_safetensors({{"a", at::zeros({1}, at::kHalf)},
+                                                {"b", at::zeros({1}, at::kLong)},
+                                                {"c", at::zeros({1}, at::kFloat)}});
   const std::string mixed_header = mixed.substr(8, mixed.size() - 8 - 14);
   EXPECT_LT(mixed_header.find("\"b\""), mixed_header.find("\"c\""));
   EXPECT_LT(mixed_header.find("\"c\""), mixed_header.find("\"a\""));
-  EXPECT_NE(mixed_header.find(R"("b":{"dtype":"I64","shape":[1],"data_offsets":[0,8]})"), std::string::npos);
+  EXPECT_NE(mixed_header.find(R"("b":{"dtype":"I64","shape":[1],"data_offsets":[0,8]})"),
+            std::string::npos);
 }
 
 TEST(Safetensors, WriterRejectsBadInput) {
-  EXPECT_THROW(encode_safetensors({{"c", at::zeros({2}, at::kComplexFloat)}}), std::invalid_argument);
+  EXPECT_THROW(encode_safetensors({{"c", at::zeros({2}, at::kComplexFloat)}}),
+               std::invalid_argument);
   EXPECT_THROW(encode_safetensors({{"u", at::Tensor()}}), std::invalid_argument);
   EXPECT_THROW(encode_safetensors({{"bad\xff", at::zeros({2})}}), std::invalid_argument);
   EXPECT_THROW(encode_safetensors({{"w", at::zeros({2})}}, {}, at::kInt), std::invalid_argument);

@@ -70,7 +70,7 @@ TEST(Conditioning, EncoderIsZeroUntilTrainedAndPatchAligned) {
 TEST(Conditioning, SparseDepthFeaturesAreNormalisedSamplesOnTheGrid) {
   // 2 items at 8×12 -> grid 4×6: item 0 has two samples, item 1 none.
   at::Tensor depth = at::zeros({2, 8, 12}, at::kDouble);
-  depth[0][1][3] = 2.0;  // centre (3.5, 1.5) -> grid (col 1, row 0)
+  depth[0][1][3] = 2.0;   // centre (3.5, 1.5) -> grid (col 1, row 0)
   depth[0][6][10] = 6.0;  // centre (10.5, 6.5) -> grid (col 5, row 3)
   ConditioningConfig config;
   config.gaussian_smoothing = false;
@@ -87,7 +87,7 @@ TEST(Conditioning, SparseDepthFeaturesAreNormalisedSamplesOnTheGrid) {
   config.gaussian_smoothing = true;
   const at::Tensor smooth = sparse_depth_features(depth, 4, 6, config);
   EXPECT_TRUE(at::equal(smooth.select(1, 1), expected.select(1, 1)));  // the mask
-  EXPECT_GT((smooth[0][0] > 0).sum().item<int64_t>(), 2);             // spread out
+  EXPECT_GT((smooth[0][0] > 0).sum().item<int64_t>(), 2);              // spread out
   EXPECT_EQ(smooth[1].abs().max().item<double>(), 0.0);
 }
 

@@ -25,23 +25,29 @@ std::set<std::string> names(torch::nn::Module& module) {
 TEST(DinoV2, HubViTSmallHasTheCheckpointNamesAndShapes) {
   DinoV2 vit(DinoV2Config::hub("dinov2_vits14"));
   const auto keys = names(*vit);
-  for (const char* key : {"patch_embed.proj.weight", "cls_token", "pos_embed", "mask_token", "blocks.0.norm1.weight",
-                          "blocks.0.attn.qkv.weight", "blocks.0.attn.proj.bias", "blocks.0.ls1.gamma",
-                          "blocks.11.mlp.fc1.weight", "blocks.11.mlp.fc2.bias", "blocks.11.ls2.gamma", "norm.bias"}) {
+  for (const char* key :
+       {"patch_embed.proj.weight", "cls_token", "pos_embed", "mask_token", "blocks.0.norm1.weight",
+        "blocks.0.attn.qkv.weight", "blocks.0.attn.proj.bias", "blocks.0.ls1.gamma",
+        "blocks.11.mlp.fc1.weight", "blocks.11.mlp.fc2.bias", "blocks.11.ls2.gamma", "norm.bias"}) {
     EXPECT_TRUE(keys.count(key)) << key;
   }
   // patch_embed (2), cls, pos, mask, 12 blocks × 14 tensors, norm (2).
   EXPECT_EQ(keys.size(), 2u + 3u + 12u * 14u + 2u);
   EXPECT_EQ(vit->pos_embed.sizes(), (std::vector<int64_t>{1, 1370, 384}));
-  EXPECT_EQ(vit->blocks->ptr<BlockImpl>(0)->attn->qkv->weight.sizes(), (std::vector<int64_t>{1152, 384}));
+  EXPECT_EQ(vit->blocks->ptr<BlockImpl>(0)->attn->qkv->weight.sizes(),
+            (std::vector<int64_t>{1152, 384}));
   // On the native 37×37 grid the table is used as it is.
   EXPECT_TRUE(at::equal(vit->position_embedding(37, 37), vit->pos_embed));
 }
 
 TEST(DinoV2, RegistersWithoutLayerScaleAndSwiGLU) {
-  DinoV2Config config = DinoV2Config::from_json(nlohmann::json{{"embed_dim", 32}, {"depth", 3}, {"num_heads", 2},
-                                                               {"img_size", 70}, {"patch_size", 14},
-                                                               {"num_register_tokens", 4}, {"init_values", nullptr},
+  DinoV2Config config = DinoV2Config::from_json(nlohmann::json{{"embed_dim", 32},
+                                                               {"depth", 3},
+                                                               {"num_heads", 2},
+                                                               {"img_size", 70},
+                                                               {"patch_size", 14},
+                                                               {"num_register_tokens", 4},
+                                                               {"init_values", nullptr},
                                                                {"ffn_layer", "swiglufused"}});
   DinoV2 vit(config);
   const auto keys = names(*vit);
@@ -67,8 +73,10 @@ TEST(DinoV2, RegistersWithoutLayerScaleAndSwiGLU) {
 }
 
 TEST(DinoV2, RejectsUnknownConfigKeys) {
-  EXPECT_THROW(DinoV2Config::from_json(nlohmann::json{{"embed_dim", 32}, {"depht", 3}}), std::invalid_argument);
-  EXPECT_THROW(DinoV2Config::from_json(nlohmann::json{{"embed_dim", 30}, {"num_heads", 4}}), std::invalid_argument);
+  EXPECT_THROW(DinoV2Config::from_json(nlohmann::json{{"embed_dim", 32}, {"depht", 3}}),
+               std::invalid_argument);
+  EXPECT_THROW(DinoV2Config::from_json(nlohmann::json{{"embed_dim", 30}, {"num_heads", 4}}),
+               std::invalid_argument);
   EXPECT_THROW(DinoV2Config::from_json(nlohmann::json{{"block_chunks", 4}}), std::invalid_argument);
   EXPECT_THROW(DinoV2Config::hub("dinov2_vitx14"), std::invalid_argument);
 }

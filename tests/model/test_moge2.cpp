@@ -9,8 +9,8 @@
 #include <fstream>
 #include <string>
 
-#include "omnipoint/io/npy.h"
 #include "omnipoint/geometry/view_plane_uv.h"
+#include "omnipoint/io/npy.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2.h"
 #include "omnipoint/model/moge2_infer.h"
@@ -27,7 +27,9 @@ nlohmann::json read_meta() {
   return nlohmann::json::parse(in);
 }
 
-at::Tensor expected(const std::string& name) { return io::read_npy(kFixture + "/" + name + ".npy"); }
+at::Tensor expected(const std::string& name) {
+  return io::read_npy(kFixture + "/" + name + ".npy");
+}
 
 // |Δ| <= 1e-4 + 1e-4·|ref| everywhere (README §1.8), same shape, infinities at the same places.
 void expect_close(const at::Tensor& actual, const at::Tensor& reference, const std::string& name) {
@@ -66,7 +68,8 @@ std::map<std::string, at::Tensor>* MoGe2Fixture::tensors_ = nullptr;
 TEST_F(MoGe2Fixture, StrictLoadFindsEveryTensor) {
   const nlohmann::json meta = read_meta();
   model::MoGe2Model fresh(model::MoGe2Config::from_json(meta["model_config"]));
-  const model::LoadReport report = model::load_state_dict(*fresh, *tensors_, model::LoadMode::kStrict);
+  const model::LoadReport report =
+      model::load_state_dict(*fresh, *tensors_, model::LoadMode::kStrict);
   EXPECT_TRUE(report.missing.empty());
   EXPECT_TRUE(report.unexpected.empty());
   EXPECT_TRUE(report.mismatched.empty());
@@ -78,8 +81,11 @@ TEST_F(MoGe2Fixture, StrictLoadFindsEveryTensor) {
 
 // Runs the encoder step by step and compares every intermediate the fixture records in `dir`
 // (features_i only where present), then the full forward.
-void check_forward(model::MoGe2Model& model, const std::string& dir, const nlohmann::json& case_meta) {
-  const auto load = [&](const std::string& name) { return io::read_npy(kFixture + "/" + dir + name + ".npy"); };
+void check_forward(model::MoGe2Model& model, const std::string& dir,
+                   const nlohmann::json& case_meta) {
+  const auto load = [&](const std::string& name) {
+    return io::read_npy(kFixture + "/" + dir + name + ".npy");
+  };
   const auto exists = [&](const std::string& name) {
     return std::ifstream(kFixture + "/" + dir + name + ".npy").good();
   };
@@ -91,7 +97,8 @@ void check_forward(model::MoGe2Model& model, const std::string& dir, const nlohm
 
   auto& encoder = *model->encoder;
   auto& backbone = *encoder.backbone;
-  expect_close(backbone.position_embedding(grid.rows, grid.cols), load("expected_pos_embed"), dir + "pos_embed");
+  expect_close(backbone.position_embedding(grid.rows, grid.cols), load("expected_pos_embed"),
+               dir + "pos_embed");
   const at::Tensor tokens = backbone.prepare_tokens(encoder.preprocess(image, grid));
   expect_close(tokens, load("expected_tokens_embedded"), dir + "tokens_embedded");
   const auto layers = backbone.intermediate_layers(tokens, encoder.config().intermediate_layers);
@@ -100,18 +107,23 @@ void check_forward(model::MoGe2Model& model, const std::string& dir, const nlohm
     if (exists(name)) expect_close(layers[i].patch_tokens, load(name), dir + name);
   }
   expect_close(layers.back().class_token, load("expected_cls"), dir + "cls");
-  expect_close(encoder.project(layers, grid).features, load("expected_projected_features"), dir + "projected");
+  expect_close(encoder.project(layers, grid).features, load("expected_projected_features"),
+               dir + "projected");
   if (exists("expected_raw_points"))
-    expect_close(model->forward_raw(image, grid).points, load("expected_raw_points"), dir + "raw_points");
+    expect_close(model->forward_raw(image, grid).points, load("expected_raw_points"),
+                 dir + "raw_points");
 
   const model::MoGe2Output output = model->forward(image, num_tokens);
   expect_close(output.points, load("expected_points"), dir + "points");
   expect_close(output.mask, load("expected_mask"), dir + "mask");
   expect_close(output.metric_scale, load("expected_metric_scale"), dir + "metric_scale");
-  if (exists("expected_normal")) expect_close(output.normal, load("expected_normal"), dir + "normal");
+  if (exists("expected_normal"))
+    expect_close(output.normal, load("expected_normal"), dir + "normal");
 }
 
-TEST_F(MoGe2Fixture, ForwardMatchesMoGe) { check_forward(*model_, "", read_meta()); }
+TEST_F(MoGe2Fixture, ForwardMatchesMoGe) {
+  check_forward(*model_, "", read_meta());
+}
 
 TEST_F(MoGe2Fixture, AntiAliasedDownsampleCaseMatchesMoGe) {
   const nlohmann::json meta = read_meta()["extra_downsample"];
@@ -128,8 +140,10 @@ TEST_F(MoGe2Fixture, InferMatchesMoGe) {
   const geometry::FocalShift camera = geometry::recover_focal_shift(output.points, mask);
   const auto& infer_meta = meta["infer"];
   for (int64_t b = 0; b < image.size(0); ++b) {
-    EXPECT_NEAR(camera.shift[b].item<double>(), infer_meta["shift_returned"][b].get<double>(), 1e-6);
-    EXPECT_NEAR(camera.focal[b].item<double>(), infer_meta["focal_returned"][b].get<double>(), 1e-6);
+    EXPECT_NEAR(camera.shift[b].item<double>(), infer_meta["shift_returned"][b].get<double>(),
+                1e-6);
+    EXPECT_NEAR(camera.focal[b].item<double>(), infer_meta["focal_returned"][b].get<double>(),
+                1e-6);
   }
 
   const model::MoGe2Inference result = model::postprocess(output);
@@ -140,7 +154,8 @@ TEST_F(MoGe2Fixture, InferMatchesMoGe) {
 
   // The same geometry as rays and distances: unit rays, P = distance · ray where valid.
   const at::Tensor valid = result.mask.unsqueeze(-1).expand_as(result.points);
-  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(result.rays, 2, {-1}), at::ones_like(result.distance), 0, 1e-5));
+  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(result.rays, 2, {-1}),
+                           at::ones_like(result.distance), 0, 1e-5));
   EXPECT_TRUE(at::allclose((result.rays * result.distance.unsqueeze(-1)).masked_select(valid),
                            result.points.masked_select(valid), 1e-5, 1e-5));
   EXPECT_TRUE(at::equal(at::isinf(result.distance), ~result.mask));
@@ -160,7 +175,8 @@ TEST(FocalShift, TooFewValidSamplesGiveFocalOneShiftZero) {
 TEST(FocalShift, RecoversAKnownPinholeCamera) {
   // Points of a pinhole camera with focal 1.7 (half-diagonal units), shifted in z by −0.4.
   const int64_t height = 48, width = 64;
-  const at::Tensor uv = geometry::normalized_view_plane_uv(width, height, double(width) / height, at::kDouble);
+  const at::Tensor uv =
+      geometry::normalized_view_plane_uv(width, height, double(width) / height, at::kDouble);
   const at::Tensor depth = 2 + at::rand({height, width}, at::kDouble);
   const at::Tensor xy = uv * depth.unsqueeze(-1) / 1.7;
   const at::Tensor points = at::cat({xy, (depth - 0.4).unsqueeze(-1)}, -1).unsqueeze(0);
@@ -191,7 +207,8 @@ TEST(MoGe2Config, RejectsUnsupportedSettingsClearly) {
   EXPECT_THROW(model::MoGe2Config::from_json_text("{not json"), std::invalid_argument);
   // The default token count is MoGe's infer() default: the top of num_tokens_range.
   config = read_meta()["model_config"];
-  EXPECT_EQ(model::MoGe2Config::from_json(config).default_num_tokens(), config["num_tokens_range"][1].get<int64_t>());
+  EXPECT_EQ(model::MoGe2Config::from_json(config).default_num_tokens(),
+            config["num_tokens_range"][1].get<int64_t>());
   // Hub names resolve to the published ViT shapes.
   EXPECT_EQ(model::DinoV2Config::hub("dinov2_vitl14").embed_dim, 1024);
   EXPECT_EQ(model::DinoV2Config::hub("dinov2_vitg14").depth, 40);
@@ -217,18 +234,21 @@ TEST(MoGe2, BatchedForwardEqualsPerImageAndNormalsAreUnit) {
   const model::MoGe2Output batched = net->forward(images, 40);
   ASSERT_TRUE(batched.normal.defined());
   EXPECT_EQ(batched.normal.sizes(), (std::vector<int64_t>{2, 50, 70, 3}));
-  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(batched.normal, 2, {-1}), at::ones({2, 50, 70}), 0, 1e-5));
+  EXPECT_TRUE(at::allclose(at::linalg_vector_norm(batched.normal, 2, {-1}), at::ones({2, 50, 70}),
+                           0, 1e-5));
   for (int64_t b = 0; b < 2; ++b) {
     const model::MoGe2Output single = net->forward(images.narrow(0, b, 1), 40);
     EXPECT_TRUE(at::allclose(single.points, batched.points.narrow(0, b, 1), 1e-4, 1e-5));
     EXPECT_TRUE(at::allclose(single.mask, batched.mask.narrow(0, b, 1), 1e-4, 1e-5));
-    EXPECT_TRUE(at::allclose(single.metric_scale, batched.metric_scale.narrow(0, b, 1), 1e-4, 1e-6));
+    EXPECT_TRUE(
+        at::allclose(single.metric_scale, batched.metric_scale.narrow(0, b, 1), 1e-4, 1e-6));
   }
   const model::MoGe2Inference result = model::infer(net, images, 40);
   EXPECT_EQ(result.intrinsics.sizes(), (std::vector<int64_t>{2, 3, 3}));
   EXPECT_TRUE(at::equal(at::isinf(result.depth), ~result.mask));
-  EXPECT_TRUE(at::equal(result.normal.masked_select(~result.mask.unsqueeze(-1).expand_as(result.normal)).abs().sum(),
-                        at::zeros({})));
+  EXPECT_TRUE(at::equal(
+      result.normal.masked_select(~result.mask.unsqueeze(-1).expand_as(result.normal)).abs().sum(),
+      at::zeros({})));
 }
 
 }  // namespace

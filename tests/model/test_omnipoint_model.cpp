@@ -3,8 +3,8 @@
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 #include <torch/nn/init.h>
-#include <nlohmann/json.hpp>
 #include <torch/nn/modules/conv.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cstdio>
@@ -26,17 +26,20 @@ namespace {
 
 constexpr int64_t kNumTokens = 12;  // a 3×4 grid for the 30×40 test images
 
-OmniPointModel tiny_model(const std::string& output = "ray_distance",
-                          const std::string& conditioning = R"({"encoder_dim": 8, "splat_radius": 3})") {
+OmniPointModel tiny_model(
+    const std::string& output = "ray_distance",
+    const std::string& conditioning = R"({"encoder_dim": 8, "splat_radius": 3})") {
   at::manual_seed(7);
-  return OmniPointModel(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json(output, conditioning)));
+  return OmniPointModel(
+      OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json(output, conditioning)));
 }
 
 // Gives the zero-initialised fusion layers (encoders' last conv, state embeddings) values.
 void activate_conditioning(OmniPointModelImpl& model) {
   at::NoGradGuard no_grad;
   for (auto& [name, tensor] : state_dict(model)) {
-    if (name.find("_encoder.fuse.") != std::string::npos || name.find("_state.") != std::string::npos)
+    if (name.find("_encoder.fuse.") != std::string::npos ||
+        name.find("_state.") != std::string::npos)
       tensor.normal_(0.0, 0.2);
   }
 }
@@ -54,7 +57,8 @@ at::Tensor pinhole_rays(int64_t batch, int64_t height, int64_t width, double foc
 // 15 random samples per item of a smooth positive distance field.
 at::Tensor sparse_samples(int64_t batch, int64_t height, int64_t width) {
   const at::Tensor field = 2.0 + at::rand({batch, height, width});
-  const at::Tensor keep = at::rand({batch, height, width}) < 15.0 / static_cast<double>(height * width);
+  const at::Tensor keep =
+      at::rand({batch, height, width}) < 15.0 / static_cast<double>(height * width);
   return at::where(keep, field, at::zeros_like(field));
 }
 
@@ -64,7 +68,9 @@ struct Case {
   at::Tensor sparse = sparse_samples(2, 30, 40);
 };
 
-double max_difference(const at::Tensor& a, const at::Tensor& b) { return (a - b).abs().max().item<double>(); }
+double max_difference(const at::Tensor& a, const at::Tensor& b) {
+  return (a - b).abs().max().item<double>();
+}
 
 TEST(OmniPointModel, OutputShapesAndRanges) {
   for (const std::string output : {"ray_distance", "xyz"}) {
@@ -86,7 +92,8 @@ TEST(OmniPointModel, OutputShapesAndRanges) {
     EXPECT_GT(out.metric_scale.min().item<double>(), 0.0);
     EXPECT_TRUE(at::allclose(out.metric_scale, at::exp(out.log_metric_scale)));
     EXPECT_TRUE(at::allclose(out.mask, at::sigmoid(out.mask_logits)));
-    const at::Tensor expected = out.metric_scale.view({2, 1, 1, 1}) * out.distance.unsqueeze(-1) * out.rays;
+    const at::Tensor expected =
+        out.metric_scale.view({2, 1, 1, 1}) * out.distance.unsqueeze(-1) * out.rays;
     EXPECT_LT(max_difference(out.points, expected), 1e-6);
     EXPECT_FALSE(out.points.isnan().any().item<bool>());
     if (output == "ray_distance") {
@@ -97,7 +104,9 @@ TEST(OmniPointModel, OutputShapesAndRanges) {
       // MoGe's exp remap of the points head: P = (a·e^c, b·e^c, e^c) = d · r.
       const at::Tensor z = at::exp(out.points_raw.select(-1, 2));
       EXPECT_LT(max_difference(out.distance * out.rays.select(-1, 2), z), 1e-4);
-      EXPECT_LT(max_difference(out.rays.select(-1, 0) / out.rays.select(-1, 2), out.points_raw.select(-1, 0)), 1e-4);
+      EXPECT_LT(max_difference(out.rays.select(-1, 0) / out.rays.select(-1, 2),
+                               out.points_raw.select(-1, 0)),
+                1e-4);
     }
   }
 }
@@ -151,10 +160,12 @@ TEST(OmniPointModel, EveryConditionChangesTheOutput) {
             1e-4);
 
   // The Gaussian smoothing changes what the sparse-depth branch sees.
-  OmniPointModel raw = tiny_model("ray_distance", R"({"encoder_dim": 8, "splat_radius": 3, "gaussian_smoothing": false})");
+  OmniPointModel raw = tiny_model(
+      "ray_distance", R"({"encoder_dim": 8, "splat_radius": 3, "gaussian_smoothing": false})");
   activate_conditioning(*raw);
   load_state_dict(*raw, state_dict(*model), LoadMode::kStrict);
-  EXPECT_GT(max_difference(raw->forward({c.image, {}, c.sparse}, kNumTokens).points, depth.points), 1e-4);
+  EXPECT_GT(max_difference(raw->forward({c.image, {}, c.sparse}, kNumTokens).points, depth.points),
+            1e-4);
 }
 
 TEST(OmniPointModel, StateEmbeddingFollowsTheInputs) {
@@ -192,7 +203,9 @@ TEST(OmniPointModel, GradientsReachTheConditioningThatWasUsed) {
   activate_conditioning(*model);
   const Case c;
   const OmniPointOutput out = model->forward({c.image, c.rays}, kNumTokens);  // +K, no depth
-  (out.log_distance.mean() + out.ray_raw.mean() + out.mask_logits.mean() + out.log_metric_scale.mean()).backward();
+  (out.log_distance.mean() + out.ray_raw.mean() + out.mask_logits.mean() +
+   out.log_metric_scale.mean())
+      .backward();
   EXPECT_GT(model->intrinsics_encoder->fuse->weight.grad().abs().sum().item<double>(), 0.0);
   EXPECT_GT(model->intrinsics_encoder->patchify->weight.grad().abs().sum().item<double>(), 0.0);
   const at::Tensor e_intrinsic = model->intrinsics_state->weight.grad();
@@ -237,9 +250,11 @@ TEST(OmniPointModel, EveryConfigurationSavesAndReloadsBitExactly) {
           for (const bool smoothing : {false, true}) {
             if (!depth && !smoothing) continue;  // smoothing is a sparse-depth option
             const std::string conditioning =
-                std::string(R"({"encoder_dim": 4, "intrinsics": )") + (intrinsics ? "true" : "false") +
-                R"(, "sparse_depth": )" + (depth ? "true" : "false") + R"(, "state_embeddings": )" +
-                (states ? "true" : "false") + R"(, "gaussian_smoothing": )" + (smoothing ? "true" : "false") + "}";
+                std::string(R"({"encoder_dim": 4, "intrinsics": )") +
+                (intrinsics ? "true" : "false") + R"(, "sparse_depth": )" +
+                (depth ? "true" : "false") + R"(, "state_embeddings": )" +
+                (states ? "true" : "false") + R"(, "gaussian_smoothing": )" +
+                (smoothing ? "true" : "false") + "}";
             SCOPED_TRACE(output + " " + conditioning);
             OmniPointModel model = tiny_model(output, conditioning);
             activate_conditioning(*model);
@@ -247,7 +262,8 @@ TEST(OmniPointModel, EveryConfigurationSavesAndReloadsBitExactly) {
                                          depth ? c.sparse : at::Tensor()};
             const OmniPointOutput before = model->forward(inputs, kNumTokens);
 
-            const std::string bytes = io::encode_safetensors(state_dict(*model), omnipoint_metadata(model->config()));
+            const std::string bytes =
+                io::encode_safetensors(state_dict(*model), omnipoint_metadata(model->config()));
             const io::SafetensorsFile file = io::parse_safetensors(bytes.data(), bytes.size());
             OmniPointModel reloaded = load_omnipoint_model(file.tensors, file.metadata);
             EXPECT_EQ(reloaded->config().to_json_text(), model->config().to_json_text());
@@ -270,7 +286,8 @@ TEST(OmniPointModel, EveryConfigurationSavesAndReloadsBitExactly) {
 TEST(OmniPointModel, SavesAsHalfPrecisionFilesAndReloads) {
   OmniPointModel model = tiny_model();
   activate_conditioning(*model);
-  const std::string path = (std::filesystem::temp_directory_path() / "omnipoint_model_test.safetensors").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "omnipoint_model_test.safetensors").string();
   for (const at::ScalarType dtype : {at::kFloat, at::kHalf, at::kBFloat16}) {
     SCOPED_TRACE(c10::toString(dtype));
     io::write_safetensors(path, state_dict(*model), omnipoint_metadata(model->config()), dtype);
@@ -285,15 +302,19 @@ TEST(OmniPointModel, SavesAsHalfPrecisionFilesAndReloads) {
 }
 
 TEST(OmniPointModel, ConfigRoundTripsAndRejectsBadInput) {
-  const OmniPointConfig config = OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", "{}"));
+  const OmniPointConfig config =
+      OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", "{}"));
   EXPECT_EQ(OmniPointConfig::from_json(config.to_json()).to_json_text(), config.to_json_text());
   EXPECT_EQ(config_from_metadata(omnipoint_metadata(config)).to_json_text(), config.to_json_text());
 
   EXPECT_THROW(OmniPointConfig::from_json_text("{"), std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("points", "{}")), std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", R"({"colour": true})")),
+  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("points", "{}")),
                std::invalid_argument);
-  EXPECT_THROW(OmniPointConfig::from_json_text(test::tiny_omnipoint_config_json("ray_distance", R"({"splat_radius": -1})")),
+  EXPECT_THROW(OmniPointConfig::from_json_text(
+                   test::tiny_omnipoint_config_json("ray_distance", R"({"colour": true})")),
+               std::invalid_argument);
+  EXPECT_THROW(OmniPointConfig::from_json_text(
+                   test::tiny_omnipoint_config_json("ray_distance", R"({"splat_radius": -1})")),
                std::invalid_argument);
   EXPECT_THROW(config_from_metadata({{"format", "moge2"}, {"config", config.to_json_text()}}),
                std::invalid_argument);
@@ -301,9 +322,12 @@ TEST(OmniPointModel, ConfigRoundTripsAndRejectsBadInput) {
   OmniPointModel model(config);
   const Case c;
   EXPECT_THROW(model->forward({c.image[0]}, kNumTokens), std::invalid_argument);
-  EXPECT_THROW(model->forward({c.image, c.rays.narrow(0, 0, 1)}, kNumTokens), std::invalid_argument);
-  EXPECT_THROW(model->forward({c.image, {}, c.sparse.unsqueeze(1)}, kNumTokens), std::invalid_argument);
-  OmniPointModel plain = tiny_model("ray_distance", R"({"intrinsics": false, "sparse_depth": false})");
+  EXPECT_THROW(model->forward({c.image, c.rays.narrow(0, 0, 1)}, kNumTokens),
+               std::invalid_argument);
+  EXPECT_THROW(model->forward({c.image, {}, c.sparse.unsqueeze(1)}, kNumTokens),
+               std::invalid_argument);
+  OmniPointModel plain =
+      tiny_model("ray_distance", R"({"intrinsics": false, "sparse_depth": false})");
   EXPECT_THROW(plain->forward({c.image, c.rays}, kNumTokens), std::invalid_argument);
   EXPECT_THROW(plain->forward({c.image, {}, c.sparse}, kNumTokens), std::invalid_argument);
 }
@@ -314,10 +338,12 @@ TEST(OmniPointModel, MetricPostAlignmentRescalesToTheSparseDepth) {
   const OmniPointOutput out = model->forward({c.image}, kNumTokens);
   // Item 0: samples at 3× the predicted metric distance; item 1: none.
   const at::Tensor metric_distance = out.metric_scale.view({2, 1, 1}) * out.distance;
-  at::Tensor sparse = at::where(c.sparse > 0, 3.0 * metric_distance, at::zeros_like(metric_distance));
+  at::Tensor sparse =
+      at::where(c.sparse > 0, 3.0 * metric_distance, at::zeros_like(metric_distance));
   sparse[1].zero_();
   const OmniPointOutput aligned = align_to_metric_sparse_depth(out, sparse);
-  EXPECT_NEAR(aligned.metric_scale[0].item<double>(), 3.0 * out.metric_scale[0].item<double>(), 1e-5);
+  EXPECT_NEAR(aligned.metric_scale[0].item<double>(), 3.0 * out.metric_scale[0].item<double>(),
+              1e-5);
   EXPECT_EQ(aligned.metric_scale[1].item<double>(), out.metric_scale[1].item<double>());
   EXPECT_LT(max_difference(aligned.points[0], 3.0 * out.points[0]), 1e-4);
   EXPECT_TRUE(at::equal(aligned.points[1], out.points[1]));
@@ -340,7 +366,8 @@ TEST(OmniPointInit, FromMoGe2FixtureKeepsMoGe2Features) {
   // Everything shared loads; the head trunks load twice (ray, distance); 4 output tensors are
   // derived; the conditioning stays zero.
   const auto count = [](const std::vector<std::string>& names, const std::string& prefix) {
-    return std::count_if(names.begin(), names.end(), [&](const std::string& n) { return n.rfind(prefix, 0) == 0; });
+    return std::count_if(names.begin(), names.end(),
+                         [&](const std::string& n) { return n.rfind(prefix, 0) == 0; });
   };
   std::vector<std::string> moge2_names;
   for (const auto& [name, tensor] : file.tensors) moge2_names.push_back(name);
@@ -362,7 +389,8 @@ TEST(OmniPointInit, FromMoGe2FixtureKeepsMoGe2Features) {
   const MoGe2RawOutput reference_raw = moge2->forward_raw(image, grid);
   const MoGe2Output reference = moge2->forward(image, num_tokens);
   // With every condition given, the zero-initialised fusion leaves MoGe-2's features.
-  const OmniPointInputs conditioned{image, pinhole_rays(1, 120, 160, 100.0), sparse_samples(1, 120, 160)};
+  const OmniPointInputs conditioned{image, pinhole_rays(1, 120, 160, 100.0),
+                                    sparse_samples(1, 120, 160)};
   for (const OmniPointInputs& inputs : {OmniPointInputs{image}, conditioned}) {
     EXPECT_TRUE(at::equal(model->encode(inputs, grid).features, reference_raw.projected));
     const OmniPointOutput out = model->forward(inputs, num_tokens);
@@ -395,7 +423,9 @@ TEST(OmniPointInit, FromMoGe2IntoTheXyzAblationReproducesMoGe2Points) {
   const MoGe2Output reference = moge2->forward(image, 6);
   const OmniPointOutput out = model->forward({image}, 6);
   // points = ŝ · (MoGe-2's affine points).
-  EXPECT_LT(max_difference(out.points, reference.metric_scale.view({1, 1, 1, 1}) * reference.points), 1e-4);
+  EXPECT_LT(
+      max_difference(out.points, reference.metric_scale.view({1, 1, 1, 1}) * reference.points),
+      1e-4);
 }
 
 TEST(OmniPointInit, FromDinoV2Backbone) {

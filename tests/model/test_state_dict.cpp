@@ -43,9 +43,9 @@ struct NetImpl : torch::nn::Module {
 };
 TORCH_MODULE(Net);
 
-const std::vector<std::string> kNames = {
-    "block.fc.bias", "block.fc.weight", "block.gamma",  "block.norm.bias", "block.norm.weight",
-    "image_mean",    "proj.bias",       "proj.weight",  "steps"};
+const std::vector<std::string> kNames = {"block.fc.bias",   "block.fc.weight",   "block.gamma",
+                                         "block.norm.bias", "block.norm.weight", "image_mean",
+                                         "proj.bias",       "proj.weight",       "steps"};
 
 std::map<std::string, at::Tensor> random_weights(const Net& net) {
   std::map<std::string, at::Tensor> out;
@@ -80,7 +80,8 @@ TEST(StateDict, StrictLoadCopiesEverything) {
   const LoadReport report = load_state_dict(*net, weights, LoadMode::kStrict);
   EXPECT_EQ(report.loaded, kNames);
   EXPECT_TRUE(report.missing.empty() && report.unexpected.empty() && report.mismatched.empty());
-  for (const auto& [name, t] : state_dict(*net)) EXPECT_TRUE(at::equal(t, weights.at(name))) << name;
+  for (const auto& [name, t] : state_dict(*net))
+    EXPECT_TRUE(at::equal(t, weights.at(name))) << name;
   EXPECT_TRUE(net->proj->weight.requires_grad());  // still a trainable parameter
 }
 
@@ -101,7 +102,8 @@ TEST(StateDict, StrictLoadListsEveryProblemAndChangesNothing) {
   EXPECT_NE(message.find("1 mismatched (proj.weight: given [8, 3, 3, 3], module has [8, 3, 2, 2])"),
             std::string::npos)
       << message;
-  for (const auto& [name, t] : state_dict(*net)) EXPECT_TRUE(at::equal(t, snapshot.at(name))) << name;
+  for (const auto& [name, t] : state_dict(*net))
+    EXPECT_TRUE(at::equal(t, snapshot.at(name))) << name;
 }
 
 TEST(StateDict, StrictErrorTruncatesLongLists) {
@@ -134,7 +136,7 @@ TEST(StateDict, PartialLoadTakesWhatMatches) {
 
 TEST(StateDict, LoadKeepsTheModuleDtype) {
   Net net;
-  net->to(at::kDouble);  // LibTorch converts every tensor, the integer buffer too
+  net->to(at::kDouble);                  // LibTorch converts every tensor, the integer buffer too
   auto weights = random_weights(Net());  // float32 and int64 source
   load_state_dict(*net, weights, LoadMode::kStrict);
   EXPECT_EQ(net->proj->weight.scalar_type(), at::kDouble);
@@ -144,12 +146,14 @@ TEST(StateDict, LoadKeepsTheModuleDtype) {
 
 TEST(StateDict, ModuleRoundTripsBitExactlyThroughSafetensors) {
   Net source, target;
-  const std::string bytes = omnipoint::io::encode_safetensors(state_dict(*source), {{"format", "test"}});
+  const std::string bytes =
+      omnipoint::io::encode_safetensors(state_dict(*source), {{"format", "test"}});
   const auto file = omnipoint::io::parse_safetensors(bytes.data(), bytes.size(), "module");
   load_state_dict(*target, file.tensors, LoadMode::kStrict);
   const auto a = state_dict(*source), b = state_dict(*target);
   for (const auto& [name, t] : a) {
     ASSERT_EQ(t.scalar_type(), b.at(name).scalar_type()) << name;
-    EXPECT_EQ(0, std::memcmp(t.data_ptr(), b.at(name).data_ptr(), t.numel() * t.element_size())) << name;
+    EXPECT_EQ(0, std::memcmp(t.data_ptr(), b.at(name).data_ptr(), t.numel() * t.element_size()))
+        << name;
   }
 }

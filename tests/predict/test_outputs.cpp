@@ -12,7 +12,6 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/data/synth/synthesize.h"
-#include "support/fast_synth.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/glb.h"
 #include "omnipoint/io/image.h"
@@ -20,6 +19,7 @@
 #include "omnipoint/io/ply.h"
 #include "omnipoint/predict/outputs.h"
 #include "omnipoint/predict/predictor.h"
+#include "support/fast_synth.h"
 
 namespace omnipoint::predict {
 namespace {
@@ -27,7 +27,8 @@ namespace {
 namespace fs = std::filesystem;
 
 data::synth::SynthSample render(const std::string& spec, uint64_t seed = 3) {
-  return data::synth::synthesize(data::synth::SceneKind::kIndoor, seed, camera::parse_camera(spec), test::fast_synth());
+  return data::synth::synthesize(data::synth::SceneKind::kIndoor, seed, camera::parse_camera(spec),
+                                 test::fast_synth());
 }
 
 fs::path fresh_dir(const std::string& name) {
@@ -45,7 +46,8 @@ uint32_t u32_at(const std::string& bytes, size_t offset) {
 
 TEST(PredictOutputs, OracleFilesRoundTrip) {
   const data::synth::SynthSample synth = render("PINHOLE 64 48 52 52 32 24");
-  const Prediction p = prediction_from_geometry(synth.rays, synth.sample.distance, synth.sample.mask);
+  const Prediction p =
+      prediction_from_geometry(synth.rays, synth.sample.distance, synth.sample.mask);
   const fs::path folder = fresh_dir("oracle") / "sample";
   write_prediction_outputs(folder.string(), synth.sample.image, p);
 
@@ -62,17 +64,24 @@ TEST(PredictOutputs, OracleFilesRoundTrip) {
   const at::Tensor valid_points = expected_points.view({-1, 3}).index({mask.view(-1)});
   ASSERT_EQ(ply.points.size(0), valid_points.size(0));
   EXPECT_TRUE(at::allclose(ply.points, valid_points, 1e-6, 1e-6));
-  EXPECT_TRUE(at::equal(ply.colors, synth.sample.image.view({-1, 3}).index({mask.view(-1)}).mul(255).round().to(at::kByte)));
+  EXPECT_TRUE(at::equal(
+      ply.colors,
+      synth.sample.image.view({-1, 3}).index({mask.view(-1)}).mul(255).round().to(at::kByte)));
   // npy round trip: points from distance.npy and rays.npy are the PLY's.
   const at::Tensor from_npy = io::read_npy((folder / "rays.npy").string()) *
                               io::read_npy((folder / "distance.npy").string()).unsqueeze(-1);
   EXPECT_TRUE(at::allclose(from_npy.view({-1, 3}).index({mask.view(-1)}), ply.points, 1e-6, 1e-6));
   // depth.png in millimetres, mask.png 255 where valid.
   const at::Tensor depth_mm = io::read_image_values((folder / "depth.png").string());
-  EXPECT_LE((depth_mm.masked_select(mask) / 1000 - synth.depth.masked_select(mask)).abs().max().item<float>(), 0.0006);
+  EXPECT_LE((depth_mm.masked_select(mask) / 1000 - synth.depth.masked_select(mask))
+                .abs()
+                .max()
+                .item<float>(),
+            0.0006);
   EXPECT_TRUE(at::equal(io::read_image_values((folder / "mask.png").string()) > 0, mask));
   EXPECT_EQ(io::read_image((folder / "preview.png").string()).size(2), 3);
-  EXPECT_EQ(io::read_image((folder / "depth_vis.png").string()).sizes(), synth.sample.image.sizes());
+  EXPECT_EQ(io::read_image((folder / "depth_vis.png").string()).sizes(),
+            synth.sample.image.sizes());
   const auto json = nlohmann::json::parse(io::read_file((folder / "camera.json").string()));
   EXPECT_EQ(json["valid_pixels"].get<int64_t>(), mask.sum().item<int64_t>());
   EXPECT_TRUE(json["timing_ms"].contains("writing"));
@@ -117,19 +126,22 @@ TEST(PredictOutputs, EmptyCloudGlbIsValid) {
 // The camera fitted to the rays of a known camera is that camera (the "predicted rays" are
 // exact here), with the model picked by "auto" from the field of view.
 TEST(PredictOutputs, FittedCameraRecoversTheCamera) {
-  for (const std::string spec : {"PINHOLE 64 48 52 50 31 25", "OPENCV_FISHEYE 64 64 26 26 32 32 0.02 -0.01 0 0"}) {
+  for (const std::string spec :
+       {"PINHOLE 64 48 52 50 31 25", "OPENCV_FISHEYE 64 64 26 26 32 32 0.02 -0.01 0 0"}) {
     const camera::Camera truth = camera::parse_camera(spec);
     const camera::Rays rays = truth.ray_map();
     const at::Tensor distance = at::full({truth.height(), truth.width()}, 2.0);
     const Prediction p = prediction_from_geometry(rays.rays, distance, rays.valid);
     EXPECT_EQ(auto_fit_model(p.rays, p.mask), truth.model_name()) << spec;
-    const camera::Camera fitted = camera::fit_camera(auto_fit_model(p.rays, p.mask), truth.width(), truth.height(),
-                                                     p.rays, p.mask);
+    const camera::Camera fitted = camera::fit_camera(auto_fit_model(p.rays, p.mask), truth.width(),
+                                                     truth.height(), p.rays, p.mask);
     ASSERT_EQ(fitted.params().size(), truth.params().size());
     for (size_t i = 0; i < 4; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 1e-3) << spec;
     // And the fitted camera's rays are the given ones.
     const at::Tensor angle_cos =
-        (fitted.ray_map(at::kDouble).rays * truth.ray_map(at::kDouble).rays).sum(-1).masked_select(rays.valid);
+        (fitted.ray_map(at::kDouble).rays * truth.ray_map(at::kDouble).rays)
+            .sum(-1)
+            .masked_select(rays.valid);
     EXPECT_GT(angle_cos.min().item<double>(), std::cos(1e-4)) << spec;
   }
 }

@@ -31,7 +31,8 @@ fs::path fresh_dir(const std::string& name) {
 }
 
 void write_bytes(const fs::path& path, const void* data, size_t size) {
-  io::write_file_atomically(path.string(), [&](std::ostream& out) { out.write(static_cast<const char*>(data), size); });
+  io::write_file_atomically(
+      path.string(), [&](std::ostream& out) { out.write(static_cast<const char*>(data), size); });
 }
 
 // The same scene as every format: a sparse set of pixels with planar depth in whole
@@ -49,18 +50,26 @@ TEST(SparseDepthFiles, EveryFormatGivesTheSameMap) {
   io::write_npy((dir / "depth.npy").string(), depth.to(at::kFloat));
   // Points in the camera frame (z = depth) at the pixel centres, then in a LiDAR frame moved by T.
   const at::Tensor camera_points =
-      (rays.to(at::kDouble) * (depth / rays.select(-1, 2).to(at::kDouble)).unsqueeze(-1)).index({picked});
+      (rays.to(at::kDouble) * (depth / rays.select(-1, 2).to(at::kDouble)).unsqueeze(-1))
+          .index({picked});
   io::write_ply((dir / "cloud.ply").string(), camera_points);
-  const at::Tensor lidar_points = camera_points - at::tensor({0.5, -0.25, 1.0}, at::kDouble);  // camera = lidar + t
-  std::ofstream((dir / "lidar_to_camera.txt").string()) << "1 0 0 0.5\n0 1 0 -0.25\n0 0 1 1.0\n0 0 0 1\n";
-  const at::Tensor records = at::cat({lidar_points.to(at::kFloat), at::ones({lidar_points.size(0), 1})}, 1).contiguous();
+  const at::Tensor lidar_points =
+      camera_points - at::tensor({0.5, -0.25, 1.0}, at::kDouble);  // camera = lidar + t
+  std::ofstream((dir / "lidar_to_camera.txt").string())
+      << "1 0 0 0.5\n0 1 0 -0.25\n0 0 1 1.0\n0 0 0 1\n";
+  const at::Tensor records =
+      at::cat({lidar_points.to(at::kFloat), at::ones({lidar_points.size(0), 1})}, 1).contiguous();
   write_bytes(dir / "scan.bin", records.data_ptr<float>(), records.numel() * sizeof(float));
 
-  const at::Tensor expected = (depth / rays.select(-1, 2).to(at::kDouble)).where(picked, at::zeros_like(depth));
-  for (const auto& [file, transform] : std::vector<std::pair<std::string, std::string>>{
-           {"depth.png", ""}, {"depth.npy", ""}, {"cloud.ply", ""}, {"scan.bin", "lidar_to_camera.txt"}}) {
-    const SparseDepthInput input =
-        read_sparse_depth((dir / file).string(), transform.empty() ? "" : (dir / transform).string());
+  const at::Tensor expected =
+      (depth / rays.select(-1, 2).to(at::kDouble)).where(picked, at::zeros_like(depth));
+  for (const auto& [file, transform] :
+       std::vector<std::pair<std::string, std::string>>{{"depth.png", ""},
+                                                        {"depth.npy", ""},
+                                                        {"cloud.ply", ""},
+                                                        {"scan.bin", "lidar_to_camera.txt"}}) {
+    const SparseDepthInput input = read_sparse_depth(
+        (dir / file).string(), transform.empty() ? "" : (dir / transform).string());
     const at::Tensor map = sparse_distance_map(input, 40, 30, rays, &camera);
     EXPECT_TRUE(at::equal(map > 0, picked)) << file;
     EXPECT_TRUE(at::allclose(map.to(at::kDouble), expected, 1e-5, 1e-5)) << file;
@@ -83,7 +92,8 @@ TEST(SparseDepthFiles, LidarPointLandsOnItsPixel) {
 
 TEST(SparseDepthFiles, BadFilesNameThemselves) {
   const fs::path dir = fresh_dir("bad");
-  std::ofstream((dir / "bad.ply").string()) << "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n1 2\n";
+  std::ofstream((dir / "bad.ply").string())
+      << "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n1 2\n";
   std::ofstream((dir / "bad.bin").string()) << "12345";
   std::ofstream((dir / "bad.txt").string()) << "1 2 3";
   for (const std::string name : {"bad.ply", "bad.bin", "bad.txt", "missing.npy"}) {
@@ -96,14 +106,16 @@ TEST(SparseDepthFiles, BadFilesNameThemselves) {
   }
   SparseDepthInput wrong_size;
   wrong_size.depth_map = at::ones({10, 10});
-  EXPECT_THROW(sparse_distance_map(wrong_size, 40, 30, at::zeros({30, 40, 3}), nullptr), std::invalid_argument);
+  EXPECT_THROW(sparse_distance_map(wrong_size, 40, 30, at::zeros({30, 40, 3}), nullptr),
+               std::invalid_argument);
 }
 
 TEST(Predictor, ConcurrentCallsMatchSequentialOnes) {
   const Model model = Model::load(tiny_model_path());
   EXPECT_EQ(model.format(), "omnipoint");
   std::vector<at::Tensor> images;
-  for (int i = 0; i < 4; ++i) images.push_back(at::rand({30, 40, 3}, at::make_generator<at::CPUGeneratorImpl>(i)));
+  for (int i = 0; i < 4; ++i)
+    images.push_back(at::rand({30, 40, 3}, at::make_generator<at::CPUGeneratorImpl>(i)));
   PredictOptions options;
   options.num_tokens = 12;
   options.camera = camera::parse_camera("PINHOLE 40 30 35 35 20 15");
@@ -136,14 +148,17 @@ TEST(Predictor, SparseDepthAlignsTheMetricScale) {
   // Sparse radial distances exactly 3x an unconditioned prediction's: after the network sees
   // them its distances change, but the alignment still makes the samples' median ratio 1.
   const Prediction plain = model.predict(image, options);
-  options.sparse_depth.depth_map = (plain.distance * 3).where(at::rand({30, 40}) < 0.2, at::zeros({30, 40}));
+  options.sparse_depth.depth_map =
+      (plain.distance * 3).where(at::rand({30, 40}) < 0.2, at::zeros({30, 40}));
   options.sparse_depth.depth_is_planar = false;
   const Prediction aligned = model.predict(image, options);
   const at::Tensor used = (options.sparse_depth.depth_map > 0) & aligned.mask;
   EXPECT_EQ(aligned.sparse_samples, used.sum().item<int64_t>());
-  const at::Tensor ratio = options.sparse_depth.depth_map.masked_select(used) / aligned.distance.masked_select(used);
+  const at::Tensor ratio =
+      options.sparse_depth.depth_map.masked_select(used) / aligned.distance.masked_select(used);
   EXPECT_NEAR(ratio.median().item<double>(), 1.0, 0.05);
-  EXPECT_TRUE(at::allclose(aligned.points, aligned.rays * aligned.distance.unsqueeze(-1), 1e-5, 1e-6));
+  EXPECT_TRUE(
+      at::allclose(aligned.points, aligned.rays * aligned.distance.unsqueeze(-1), 1e-5, 1e-6));
 }
 
 TEST(Predictor, AGivenCameraIsUsedAsItIs) {
@@ -158,7 +173,8 @@ TEST(Predictor, AGivenCameraIsUsedAsItIs) {
   const camera::Rays truth = options.camera->ray_map(at::kFloat);
   const Prediction known = model.predict(image, options);
   EXPECT_TRUE(at::allclose(known.rays, truth.rays, 1e-6, 1e-6));
-  EXPECT_FALSE(at::allclose(free.rays, truth.rays, 1e-2, 1e-2));  // the random network's own rays differ
+  EXPECT_FALSE(
+      at::allclose(free.rays, truth.rays, 1e-2, 1e-2));  // the random network's own rays differ
   EXPECT_FALSE((known.mask & ~truth.valid).any().item<bool>());
   EXPECT_TRUE(at::allclose(known.points, known.rays * known.distance.unsqueeze(-1), 1e-5, 1e-6));
 }
@@ -166,7 +182,8 @@ TEST(Predictor, AGivenCameraIsUsedAsItIs) {
 TEST(Predictor, LoadErrorsNameTheFile) {
   EXPECT_THROW(Model::load("/nonexistent/model.safetensors"), std::runtime_error);
   const fs::path dir = fresh_dir("load");
-  io::write_safetensors((dir / "other.safetensors").string(), {{"x", at::ones({2})}}, {{"format", "other"}});
+  io::write_safetensors((dir / "other.safetensors").string(), {{"x", at::ones({2})}},
+                        {{"format", "other"}});
   try {
     Model::load((dir / "other.safetensors").string());
     ADD_FAILURE();
@@ -192,11 +209,13 @@ TEST(Predictor, MoGe2CheckpointGivesItsInferPoints) {
   options.num_tokens = 300;
   options.fit_model = "PINHOLE";
   const Prediction p = model.predict(image, options);
-  const at::Tensor expected_mask = io::read_npy(fixture + "/expected_infer_mask.npy")[0].to(at::kBool);
+  const at::Tensor expected_mask =
+      io::read_npy(fixture + "/expected_infer_mask.npy")[0].to(at::kBool);
   const at::Tensor expected_points = io::read_npy(fixture + "/expected_infer_points.npy")[0];
   EXPECT_TRUE(at::equal(p.mask, expected_mask));
   const at::Tensor mask = p.mask.unsqueeze(-1).expand({-1, -1, 3});
-  EXPECT_TRUE(at::allclose(p.points.masked_select(mask), expected_points.masked_select(mask), 1e-4, 1e-5));
+  EXPECT_TRUE(
+      at::allclose(p.points.masked_select(mask), expected_points.masked_select(mask), 1e-4, 1e-5));
   ASSERT_TRUE(p.fitted_camera.has_value()) << p.fit_error;
   EXPECT_EQ(p.fitted_camera->model_name(), "PINHOLE");
 }
@@ -216,7 +235,8 @@ TEST(Predictor, MoGe2OnAFisheyeUsesMultiViewMode) {
   options.num_tokens = 300;
   options.fit_model = "";
   options.camera = camera::parse_camera("OPENCV_FISHEYE 160 120 45 45 80 60 0 0 0 0");
-  const Prediction p = model.predict(io::read_npy(fixture + "/input.npy")[0].permute({1, 2, 0}), options);
+  const Prediction p =
+      model.predict(io::read_npy(fixture + "/input.npy")[0].permute({1, 2, 0}), options);
   ASSERT_EQ(p.notes.size(), 1u);
   EXPECT_NE(p.notes[0].find("multi-view"), std::string::npos) << p.notes[0];
   const camera::Rays rays = options.camera->ray_map();

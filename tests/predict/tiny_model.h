@@ -21,7 +21,8 @@ inline std::string tiny_model_path() {
         io::read_file(std::string(OMNIPOINT_SOURCE_DIR) + "/examples/models/tiny_omnipoint.json"));
     at::manual_seed(0);
     model::OmniPointModel network(config);
-    io::write_safetensors(file.string(), model::state_dict(*network), model::omnipoint_metadata(config));
+    io::write_safetensors(file.string(), model::state_dict(*network),
+                          model::omnipoint_metadata(config));
     return file.string();
   }();
   return path;

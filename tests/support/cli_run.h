@@ -26,7 +26,8 @@ inline std::string slurp(const std::filesystem::path& path) {
 inline CliRun run_omnipoint(const std::string& args, const std::filesystem::path& scratch) {
   std::filesystem::create_directories(scratch);
   const std::filesystem::path out = scratch / "stdout", err = scratch / "stderr";
-  const std::string command = std::string(OMNIPOINT_CLI) + " " + args + " >" + out.string() + " 2>" + err.string();
+  const std::string command =
+      std::string(OMNIPOINT_CLI) + " " + args + " >" + out.string() + " 2>" + err.string();
   const int status = std::system(command.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
 }

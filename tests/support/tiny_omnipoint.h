@@ -15,19 +15,24 @@ inline std::string tiny_omnipoint_config_json(
          "resamplers": ["conv_transpose", "conv_transpose", "conv_transpose", "bilinear"],
          "res_block_in_norm": "none", "res_block_hidden_norm": "none")";
   const auto head = [&](int channels) {
-    return R"({"dim_in": [16, 8, 8, 8, 4], "dim_out": [null, null, null, null, )" + std::to_string(channels) +
-           "], " + stack + "}";
+    return R"({"dim_in": [16, 8, 8, 8, 4], "dim_out": [null, null, null, null, )" +
+           std::to_string(channels) + "], " + stack + "}";
   };
   std::string json = R"({
     "encoder": {"backbone": "dinov2_custom", "intermediate_layers": [0, 1], "dim_out": 16,
                 "backbone_config": {"embed_dim": 32, "depth": 2, "num_heads": 2, "img_size": 56}},
-    "neck": {"dim_in": [18, 2, 2, 2, 2], "dim_out": null, )" + stack + R"(},
-    "mask_head": )" + head(1) + R"(,
+    "neck": {"dim_in": [18, 2, 2, 2, 2], "dim_out": null, )" +
+                     stack + R"(},
+    "mask_head": )" + head(1) +
+                     R"(,
     "scale_head": {"dims": [32, 16, 1]},
-    "output": ")" + output + R"(",
-    "conditioning": )" + conditioning;
-  json += output == "xyz" ? R"(, "points_head": )" + head(3) + "}"
-                          : R"(, "ray_head": )" + head(3) + R"(, "distance_head": )" + head(1) + "}";
+    "output": ")" + output +
+                     R"(",
+    "conditioning": )" +
+                     conditioning;
+  json += output == "xyz"
+              ? R"(, "points_head": )" + head(3) + "}"
+              : R"(, "ray_head": )" + head(3) + R"(, "distance_head": )" + head(1) + "}";
   return json;
 }
 

@@ -35,16 +35,20 @@ int run(const std::string& command) {
 }
 
 // The dtype each tensor of make_checkpoints.py has in its checkpoint.
-const std::map<std::string, at::ScalarType> kStored = {
-    {"blocks.0.attn.qkv.weight", at::kFloat}, {"blocks.0.ls1.gamma", at::kFloat},
-    {"norm.bias", at::kDouble},               {"patch_embed.proj.weight", at::kHalf},
-    {"pos_embed", at::kBFloat16},             {"steps", at::kLong},
-    {"valid", at::kBool},                     {"scalar", at::kFloat},
-    {"transposed", at::kFloat}};
+const std::map<std::string, at::ScalarType> kStored = {{"blocks.0.attn.qkv.weight", at::kFloat},
+                                                       {"blocks.0.ls1.gamma", at::kFloat},
+                                                       {"norm.bias", at::kDouble},
+                                                       {"patch_embed.proj.weight", at::kHalf},
+                                                       {"pos_embed", at::kBFloat16},
+                                                       {"steps", at::kLong},
+                                                       {"valid", at::kBool},
+                                                       {"scalar", at::kFloat},
+                                                       {"transposed", at::kFloat}};
 
 class Workspace {
  public:
-  Workspace() : dir_(fs::temp_directory_path() / ("omnipoint_convert_" + std::to_string(::getpid()))) {
+  Workspace()
+      : dir_(fs::temp_directory_path() / ("omnipoint_convert_" + std::to_string(::getpid()))) {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -69,7 +73,9 @@ class Workspace {
       EXPECT_TRUE(at::equal(it->second, reference)) << name;
     }
   }
-  at::Tensor expected(const std::string& name) const { return omnipoint::io::read_npy(path(name + ".npy")); }
+  at::Tensor expected(const std::string& name) const {
+    return omnipoint::io::read_npy(path(name + ".npy"));
+  }
 
  private:
   fs::path dir_;
@@ -89,10 +95,12 @@ TEST(ConvertCheckpoint, LayoutsPrefixesDtypesAndErrors) {
       "bare.pt strip.safetensors --strip-prefix blocks.",
       "missing.pt missing.safetensors",
   };
-  std::string command = kPython + " " + OMNIPOINT_SOURCE_DIR + "/tests/tools/make_checkpoints.py " + ws.dir().string();
+  std::string command = kPython + " " + OMNIPOINT_SOURCE_DIR + "/tests/tools/make_checkpoints.py " +
+                        ws.dir().string();
   for (const std::string& job : jobs) command += " '" + job + "'";
   const int made = run(command);
-  if (made == kSkip) GTEST_SKIP() << kPython << " lacks torch/numpy (apt-get install python3-torch python3-numpy)";
+  if (made == kSkip)
+    GTEST_SKIP() << kPython << " lacks torch/numpy (apt-get install python3-torch python3-numpy)";
   ASSERT_EQ(made, 0) << command;
   std::vector<int> statuses;
   std::istringstream lines(omnipoint::io::read_file(ws.path("status.txt")));
@@ -130,6 +138,8 @@ TEST(ConvertCheckpoint, LayoutsPrefixesDtypesAndErrors) {
   }
 
   // The command line itself.
-  EXPECT_EQ(run(kPython + " " + kTool + " " + ws.path("moge2.pt") + " " + ws.path("cli.safetensors") + " --dtype f16"), 0);
+  EXPECT_EQ(run(kPython + " " + kTool + " " + ws.path("moge2.pt") + " " +
+                ws.path("cli.safetensors") + " --dtype f16"),
+            0);
   ws.expect_tensors("cli.safetensors", "", at::kHalf);
 }

@@ -17,9 +17,12 @@ using nlohmann::json;
 std::vector<json> decaying_run(int steps) {
   std::vector<json> records;
   for (int s = 1; s <= steps; ++s)
-    records.push_back({{"step", s}, {"loss", std::exp(-0.05 * s)}, {"terms", {{"point", 0.5 / s}, {"ray", 0.1}}},
+    records.push_back({{"step", s},
+                       {"loss", std::exp(-0.05 * s)},
+                       {"terms", {{"point", 0.5 / s}, {"ray", 0.1}}},
                        {"skipped", false}});
-  records.push_back({{"step", steps}, {"eval", {{"loss", 0.2}, {"points_delta1", 0.7}, {"point", 0.1}}}});
+  records.push_back(
+      {{"step", steps}, {"eval", {{"loss", 0.2}, {"points_delta1", 0.7}, {"point", 0.1}}}});
   return records;
 }
 
@@ -41,14 +44,18 @@ TEST(TrainingCurves, OnePanelPerSeriesThreeToARow) {
   EXPECT_EQ(image.size(2), 3);
   // Every filled panel has curve ink; the sixth (empty) panel has none.
   for (int64_t i = 0; i < 6; ++i) {
-    const at::Tensor panel = image.slice(0, i / 3 * 230, i / 3 * 230 + 230).slice(1, i % 3 * 400, i % 3 * 400 + 400);
-    if (i < 5) EXPECT_GT(coloured_pixels(panel), 20) << "panel " << i;
-    else EXPECT_EQ(coloured_pixels(panel), 0);
+    const at::Tensor panel =
+        image.slice(0, i / 3 * 230, i / 3 * 230 + 230).slice(1, i % 3 * 400, i % 3 * 400 + 400);
+    if (i < 5)
+      EXPECT_GT(coloured_pixels(panel), 20) << "panel " << i;
+    else
+      EXPECT_EQ(coloured_pixels(panel), 0);
   }
 }
 
 TEST(TrainingCurves, ADecreasingLossFallsFromTopLeftToBottomRight) {
-  const at::Tensor panel = render_training_curves(decaying_run(200)).slice(0, 0, 230).slice(1, 0, 400);
+  const at::Tensor panel =
+      render_training_curves(decaying_run(200)).slice(0, 0, 230).slice(1, 0, 400);
   // Dark blue running-mean ink: where it is in the first and the last tenth of the plot width.
   const at::Tensor c = panel.to(at::kInt);
   const at::Tensor mean_ink = (c.select(-1, 2) > 140) & (c.select(-1, 0) < 60);

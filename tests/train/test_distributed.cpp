@@ -80,8 +80,11 @@ TEST(DistributedEnvTest, UnsetOrWorldOneIsOneProcess) {
 }
 
 TEST(DistributedEnvTest, ReadsTheTorchrunVariables) {
-  const DistributedEnv env = parse({{"RANK", "3"}, {"WORLD_SIZE", "8"}, {"LOCAL_RANK", "1"},
-                                    {"MASTER_ADDR", "node0"}, {"MASTER_PORT", "29500"}});
+  const DistributedEnv env = parse({{"RANK", "3"},
+                                    {"WORLD_SIZE", "8"},
+                                    {"LOCAL_RANK", "1"},
+                                    {"MASTER_ADDR", "node0"},
+                                    {"MASTER_PORT", "29500"}});
   EXPECT_EQ(env.rank, 3);
   EXPECT_EQ(env.world_size, 8);
   EXPECT_EQ(env.local_rank, 1);
@@ -90,7 +93,8 @@ TEST(DistributedEnvTest, ReadsTheTorchrunVariables) {
 }
 
 TEST(DistributedEnvTest, BadValuesNameTheVariable) {
-  const Env good = {{"RANK", "1"}, {"WORLD_SIZE", "2"}, {"MASTER_ADDR", "127.0.0.1"}, {"MASTER_PORT", "29500"}};
+  const Env good = {
+      {"RANK", "1"}, {"WORLD_SIZE", "2"}, {"MASTER_ADDR", "127.0.0.1"}, {"MASTER_PORT", "29500"}};
   ASSERT_EQ(parse_error(good), "");
   auto with = [&](const std::string& name, const std::string& value) {
     Env variables = good;
@@ -125,7 +129,9 @@ TEST(DistributedContextTest, UnreachableMasterFailsAfterTheTimeout) {
     DistributedContext(DistributedEnv{1, 2, 1, "127.0.0.1", port}, options);
     FAIL() << "joined a process group without a master";
   } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)),
+              std::string::npos)
+        << error.what();
   }
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
 }
@@ -138,7 +144,9 @@ TEST(DistributedContextTest, MasterAloneFailsAfterTheTimeout) {
     DistributedContext(DistributedEnv{0, 2, 0, "127.0.0.1", port}, options);
     FAIL() << "joined a process group of 2 alone";
   } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)),
+              std::string::npos)
+        << error.what();
   }
 }
 
@@ -211,9 +219,11 @@ TEST(BucketTest, AllReduceAveragesEveryTensorInPlace) {
     std::vector<at::Tensor> tensors = mixed_tensors(context.rank() + 1.0);  // ranks: x1 and x2
     at::Tensor strided = at::arange(6, at::kFloat).reshape({2, 3}).t().mul(context.rank() + 1.0);
     tensors.push_back(strided);
-    EXPECT_EQ(context.all_reduce_mean_(tensors), 5);  // the 4 planned above, then the large one is full
+    EXPECT_EQ(context.all_reduce_mean_(tensors),
+              5);  // the 4 planned above, then the large one is full
     const std::vector<at::Tensor> expected = mixed_tensors(1.5);
-    for (size_t i = 0; i < expected.size(); ++i) EXPECT_TRUE(tensors[i].allclose(expected[i], 0, 1e-6)) << i;
+    for (size_t i = 0; i < expected.size(); ++i)
+      EXPECT_TRUE(tensors[i].allclose(expected[i], 0, 1e-6)) << i;
     EXPECT_TRUE(strided.equal(at::arange(6, at::kFloat).reshape({2, 3}).t().mul(1.5)));
     EXPECT_THROW(context.all_reduce_mean_({at::arange(3)}), std::invalid_argument);
   });
@@ -237,7 +247,8 @@ TEST(BucketTest, ParametersWithoutGradientOnSomeOrAllRanks) {
 TEST(DistributedContextTest, ScalarMeansAndBarrier) {
   run_ranks(3, test_options(), [](const DistributedContext& context) {
     EXPECT_DOUBLE_EQ(context.all_reduce_mean(static_cast<double>(context.rank())), 1.0);
-    const auto means = context.all_reduce_mean(std::map<std::string, double>{{"a", context.rank() * 3.0}, {"b", 6.0}});
+    const auto means = context.all_reduce_mean(
+        std::map<std::string, double>{{"a", context.rank() * 3.0}, {"b", 6.0}});
     EXPECT_DOUBLE_EQ(means.at("a"), 3.0);
     EXPECT_DOUBLE_EQ(means.at("b"), 6.0);
     EXPECT_EQ(context.is_main(), context.rank() == 0);
@@ -288,10 +299,12 @@ at::Tensor train(const DistributedContext& context, std::vector<double>& losses)
   net->scale.fill_(1.0 + context.rank());
   context.broadcast_module(*net);
 
-  const at::Tensor shard = at::tensor(shard_indices(kItems, context.rank(), context.world_size()), at::kLong);
+  const at::Tensor shard =
+      at::tensor(shard_indices(kItems, context.rank(), context.world_size()), at::kLong);
   const at::Tensor x = data.x.index_select(0, shard), y = data.y.index_select(0, shard);
   // SGD sees the gradient scale (AdamW would not) and decays a zero-filled gradient's parameter.
-  torch::optim::SGD optimizer(net->parameters(), torch::optim::SGDOptions(0.1).momentum(0.9).weight_decay(0.1));
+  torch::optim::SGD optimizer(net->parameters(),
+                              torch::optim::SGDOptions(0.1).momentum(0.9).weight_decay(0.1));
   for (int step = 0; step < kSteps; ++step) {
     optimizer.zero_grad();
     const at::Tensor loss = (net->forward(x) - y).pow(2).mean();
@@ -340,13 +353,19 @@ TEST(DataParallelTest, TwoRanksMatchOneProcessOnTheCombinedBatch) {
     EXPECT_LE((parameters - reference).abs().max().item<double>(), 1e-6) << "rank " << rank;
     ASSERT_EQ(losses.numel(), kSteps);
     for (int step = 0; step < kSteps; ++step)
-      EXPECT_NEAR(losses[step].item<double>(), reference_losses[static_cast<size_t>(step)], 1e-9) << step;
+      EXPECT_NEAR(losses[step].item<double>(), reference_losses[static_cast<size_t>(step)], 1e-9)
+          << step;
   }
   // The training moved the weights: equality is not the trivial one.
   at::manual_seed(100);
   TinyNet initial;
   initial->to(at::kDouble);
-  EXPECT_GT((reference.narrow(0, 0, initial->hidden->weight.numel()) - initial->hidden->weight.reshape(-1)).abs().max().item<double>(), 1e-3);
+  EXPECT_GT((reference.narrow(0, 0, initial->hidden->weight.numel()) -
+             initial->hidden->weight.reshape(-1))
+                .abs()
+                .max()
+                .item<double>(),
+            1e-3);
   std::filesystem::remove_all(out);
 }
 

@@ -22,10 +22,11 @@ TEST(LauncherTest, EachCopyGetsItsRankAndTheSharedRendezvous) {
       std::filesystem::temp_directory_path() / ("omnipoint_launch_" + std::to_string(free_port()));
   std::filesystem::create_directories(out);
   setenv("RANK", "7", 1);  // a stale value of the parent must not reach the copies
-  const int code = run_shell(3,
-                             "test \"$WORLD_SIZE\" = 3 && test \"$MASTER_ADDR\" = 127.0.0.1 && "
-                             "test \"$LOCAL_RANK\" = \"$RANK\" && echo \"$RANK $MASTER_PORT\" > \"$0/rank$RANK\"",
-                             out.string());
+  const int code = run_shell(
+      3,
+      "test \"$WORLD_SIZE\" = 3 && test \"$MASTER_ADDR\" = 127.0.0.1 && "
+      "test \"$LOCAL_RANK\" = \"$RANK\" && echo \"$RANK $MASTER_PORT\" > \"$0/rank$RANK\"",
+      out.string());
   unsetenv("RANK");
   ASSERT_EQ(code, 0);
   std::set<std::string> ports;

@@ -14,9 +14,13 @@ namespace {
 
 const auto kDouble = at::TensorOptions().dtype(at::kDouble);
 
-at::Tensor bools(std::initializer_list<int64_t> values) { return at::tensor(values).to(at::kBool); }
+at::Tensor bools(std::initializer_list<int64_t> values) {
+  return at::tensor(values).to(at::kBool);
+}
 
-at::Generator generator(uint64_t seed = 1) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
+at::Generator generator(uint64_t seed = 1) {
+  return at::make_generator<at::CPUGeneratorImpl>(seed);
+}
 
 // Unit rays of a centred pinhole camera (B,H,W,3).
 at::Tensor pinhole_rays(int64_t batch, int64_t height, int64_t width, double focal) {
@@ -65,13 +69,15 @@ TEST(Losses, PerfectPredictionGivesZeroLoss) {
   LossTargets targets = make_targets(rays, distance);
   targets.mask.index_put_({0, at::indexing::Slice(0, 3)}, false);  // sky rows
   targets.mask_negative = ~targets.mask;
-  out.mask_logits = at::where(targets.mask, at::full_like(distance, 60.0), at::full_like(distance, -60.0));
+  out.mask_logits =
+      at::where(targets.mask, at::full_like(distance, 60.0), at::full_like(distance, -60.0));
   LossConfig config;
   config.local.levels = {4};
   config.local.min_points = 8;
   const Losses losses = compute_losses(out, targets, config, generator());
   EXPECT_TRUE(at::allclose(losses.scale, at::full({2}, 1.0 / 3.0, kDouble), 1e-12, 1e-12));
-  for (const auto& [name, term] : losses.terms) EXPECT_LT(term.abs().max().item<double>(), 1e-10) << name;
+  for (const auto& [name, term] : losses.terms)
+    EXPECT_LT(term.abs().max().item<double>(), 1e-10) << name;
   EXPECT_EQ(losses.terms.size(), 6u);
   EXPECT_LT(losses.total.item<double>(), 1e-10);
 }
@@ -85,21 +91,24 @@ TEST(Losses, PointLossHandComputed) {
   const at::Tensor pred = at::tensor({1.0, 2.0}, kDouble).view({1, 1, 2});
   LossConfig config;
   config.weights = {1, 0, 0, 0, 0, 0};
-  const Losses losses = compute_losses(make_output(rays, pred), make_targets(rays, gt), config, generator());
+  const Losses losses =
+      compute_losses(make_output(rays, pred), make_targets(rays, gt), config, generator());
   EXPECT_DOUBLE_EQ(losses.scale.item<double>(), 0.5);
   EXPECT_NEAR(losses.terms.at("point").item<double>(), 0.5 / 6.0, 1e-15);
 }
 
 TEST(Losses, RayMetricAndMaskHandComputed) {
   const at::Tensor gt_rays = at::tensor({0.0, 0.0, 1.0, 0.6, 0.0, 0.8}, kDouble).view({1, 1, 2, 3});
-  const at::Tensor pred_rays = at::tensor({0.0, 0.0, 1.0, 0.0, 0.0, 1.0}, kDouble).view({1, 1, 2, 3});
+  const at::Tensor pred_rays =
+      at::tensor({0.0, 0.0, 1.0, 0.0, 0.0, 1.0}, kDouble).view({1, 1, 2, 3});
   // |0.6| + |0.2| on one of two pixels.
-  EXPECT_NEAR(ray_loss(pred_rays, gt_rays, at::ones({1, 1, 2}, at::kBool)).item<double>(), 0.4, 1e-15);
+  EXPECT_NEAR(ray_loss(pred_rays, gt_rays, at::ones({1, 1, 2}, at::kBool)).item<double>(), 0.4,
+              1e-15);
   // Invalid camera pixels do not count.
   EXPECT_NEAR(ray_loss(pred_rays, gt_rays, bools({1, 0}).view({1, 1, 2})).item<double>(), 0.0, 0.0);
 
-  const at::Tensor metric = metric_scale_loss(at::zeros({3}, kDouble), at::tensor({M_E, M_E, NAN}, kDouble),
-                                              bools({1, 0, 1}));
+  const at::Tensor metric = metric_scale_loss(
+      at::zeros({3}, kDouble), at::tensor({M_E, M_E, NAN}, kDouble), bools({1, 0, 1}));
   EXPECT_NEAR(metric[0].item<double>(), 1.0, 1e-15);
   EXPECT_EQ(metric[1].item<double>(), 0.0);
   EXPECT_EQ(metric[2].item<double>(), 0.0);
@@ -112,8 +121,9 @@ TEST(Losses, RayMetricAndMaskHandComputed) {
   EXPECT_EQ(gauge[1].item<double>(), 0.0);
 
   // Logit 0 costs log 2 on a positive or negative pixel, nothing on an unknown one.
-  const at::Tensor mask = mask_loss(at::zeros({1, 1, 4}, kDouble), bools({1, 0, 0, 0}).view({1, 1, 4}),
-                                    bools({0, 1, 0, 0}).view({1, 1, 4}));
+  const at::Tensor mask =
+      mask_loss(at::zeros({1, 1, 4}, kDouble), bools({1, 0, 0, 0}).view({1, 1, 4}),
+                bools({0, 1, 0, 0}).view({1, 1, 4}));
   EXPECT_NEAR(mask.item<double>(), 2.0 * std::log(2.0) / 4.0, 1e-15);
 }
 
@@ -127,10 +137,12 @@ TEST(Losses, NormalLossHandComputed) {
   const double beta = 3.0 * M_PI / 180.0;
   const double floor = 0.5 * std::pow(M_PI / 180.0, 2) / beta;  // the 1° clamp's constant, removed
   at::Tensor mask = at::ones({1, 2, 2}, at::kBool);
-  EXPECT_NEAR(normal_loss(pred, gt, mask).item<double>(), 4.0 * (M_PI / 4.0 - 0.5 * beta - floor) / 8.0, 1e-12);
+  EXPECT_NEAR(normal_loss(pred, gt, mask).item<double>(),
+              4.0 * (M_PI / 4.0 - 0.5 * beta - floor) / 8.0, 1e-12);
   // One unlabelled corner leaves one triangle (the one opposite to it).
   mask.index_put_({0, 0, 0}, false);
-  EXPECT_NEAR(normal_loss(pred, gt, mask).item<double>(), (M_PI / 4.0 - 0.5 * beta - floor) / 8.0, 1e-12);
+  EXPECT_NEAR(normal_loss(pred, gt, mask).item<double>(), (M_PI / 4.0 - 0.5 * beta - floor) / 8.0,
+              1e-12);
   // Scale-invariant, and zero for the same shape.
   EXPECT_NEAR(normal_loss(5.0 * gt, gt, at::ones({1, 2, 2}, at::kBool)).item<double>(), 0.0, 1e-15);
 }
@@ -144,11 +156,16 @@ TEST(Losses, LocalLossIsAffineInvariantPerPatchAndSeesLocalErrors) {
   options.min_points = 8;
   const at::Tensor global = at::full({1}, 0.5, kDouble);
   const at::Tensor shifted = 2.0 * gt + at::tensor({0.1, -0.2, 0.3}, kDouble);
-  EXPECT_LT(local_loss(shifted, gt, rays, mask, global, 4, options, generator()).item<double>(), 1e-12);
+  EXPECT_LT(local_loss(shifted, gt, rays, mask, global, 4, options, generator()).item<double>(),
+            1e-12);
   // A bump inside the image costs something; a scale far from the global one rejects patches.
   const at::Tensor bumped = 2.0 * gt * (1.0 + 0.2 * at::sin(gt.select(-1, 0) * 9.0).unsqueeze(-1));
-  EXPECT_GT(local_loss(bumped, gt, rays, mask, global, 4, options, generator()).item<double>(), 1e-3);
-  EXPECT_EQ(local_loss(bumped, gt, rays, mask, at::full({1}, 50.0, kDouble), 4, options, generator()).item<double>(), 0.0);
+  EXPECT_GT(local_loss(bumped, gt, rays, mask, global, 4, options, generator()).item<double>(),
+            1e-3);
+  EXPECT_EQ(
+      local_loss(bumped, gt, rays, mask, at::full({1}, 50.0, kDouble), 4, options, generator())
+          .item<double>(),
+      0.0);
   // The same generator seed gives the same patches.
   EXPECT_EQ(local_loss(bumped, gt, rays, mask, global, 4, options, generator(3)).item<double>(),
             local_loss(bumped, gt, rays, mask, global, 4, options, generator(3)).item<double>());
@@ -167,19 +184,28 @@ TEST(Losses, DecoupledLossIgnoresRayErrorsNaiveDoesNot) {
   EXPECT_LT(decoupled.terms.at("point").item<double>(), 1e-15);
   EXPECT_GT(decoupled.terms.at("ray").item<double>(), 0.01);
   config.point_loss = PointLoss::kNaive;
-  EXPECT_GT(compute_losses(out, make_targets(rays, distance), config, generator()).terms.at("point").item<double>(), 1e-3);
+  EXPECT_GT(compute_losses(out, make_targets(rays, distance), config, generator())
+                .terms.at("point")
+                .item<double>(),
+            1e-3);
   // Disjoint: distances only, so also zero here.
   config.point_loss = PointLoss::kDisjoint;
-  EXPECT_LT(compute_losses(out, make_targets(rays, distance), config, generator()).terms.at("point").item<double>(), 1e-15);
+  EXPECT_LT(compute_losses(out, make_targets(rays, distance), config, generator())
+                .terms.at("point")
+                .item<double>(),
+            1e-15);
   // An XYZ head has no ray term.
   model::OmniPointOutput xyz = out;
   xyz.ray_raw = at::Tensor();
-  EXPECT_EQ(compute_losses(xyz, make_targets(rays, distance), config, generator()).terms.count("ray"), 0u);
+  EXPECT_EQ(
+      compute_losses(xyz, make_targets(rays, distance), config, generator()).terms.count("ray"),
+      0u);
   EXPECT_THROW(parse_point_loss("entangled"), std::invalid_argument);
 }
 
 // Autograd against central differences of f at x (double precision).
-void expect_gradient_matches(const std::function<at::Tensor(const at::Tensor&)>& f, const at::Tensor& x0) {
+void expect_gradient_matches(const std::function<at::Tensor(const at::Tensor&)>& f,
+                             const at::Tensor& x0) {
   const at::Tensor x = x0.clone().requires_grad_(true);
   f(x).sum().backward();
   const at::Tensor analytic = x.grad().reshape({-1});
@@ -190,8 +216,10 @@ void expect_gradient_matches(const std::function<at::Tensor(const at::Tensor&)>&
     plus[k] += h;
     minus[k] -= h;
     const double numeric = (f(plus.view(x0.sizes())).sum().item<double>() -
-                            f(minus.view(x0.sizes())).sum().item<double>()) / (2.0 * h);
-    EXPECT_NEAR(analytic[k].item<double>(), numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << "element " << k;
+                            f(minus.view(x0.sizes())).sum().item<double>()) /
+                           (2.0 * h);
+    EXPECT_NEAR(analytic[k].item<double>(), numeric, 1e-6 * std::max(1.0, std::abs(numeric)))
+        << "element " << k;
   }
 }
 
@@ -207,15 +235,19 @@ TEST(Losses, GradientsMatchFiniteDifferences) {
 
   // L_point at a fixed s* (s* is a constant for the gradient): as a function of log d̂.
   expect_gradient_matches(
-      [&](const at::Tensor& ld) { return aligned_l1_loss(ld.exp().unsqueeze(-1) * rays, gt, weight, scale); }, log_d);
+      [&](const at::Tensor& ld) {
+        return aligned_l1_loss(ld.exp().unsqueeze(-1) * rays, gt, weight, scale);
+      },
+      log_d);
   // ... and through compute_losses, whose gradient must be the fixed-scale one.
   {
     const at::Tensor ld = log_d.clone().requires_grad_(true);
     LossConfig config;
     config.weights = {1, 0, 0, 0, 0, 0};
     model::OmniPointOutput out = make_output(rays, ld.exp());
-    const Losses losses = compute_losses(out, make_targets(rays, at::where(mask, distance, at::zeros_like(distance))),
-                                         config, generator());
+    const Losses losses =
+        compute_losses(out, make_targets(rays, at::where(mask, distance, at::zeros_like(distance))),
+                       config, generator());
     losses.total.backward();
     const at::Tensor fixed = log_d.clone().requires_grad_(true);
     aligned_l1_loss(fixed.exp().unsqueeze(-1) * rays, gt, weight, losses.scale).mean().backward();
@@ -227,7 +259,9 @@ TEST(Losses, GradientsMatchFiniteDifferences) {
       [&](const at::Tensor& r) { return ray_loss(r / r.norm(2, {-1}, true), rays, mask); }, raw);
   // L_metric.
   expect_gradient_matches(
-      [&](const at::Tensor& s) { return metric_scale_loss(s, scale, bools({1, 1})); },
+      [&](const at::Tensor& s) {
+        return metric_scale_loss(s, scale, bools({1, 1}));
+      },
       at::tensor({0.3, -0.2}, kDouble));
   // The gauge term.
   expect_gradient_matches([&](const at::Tensor& ld) { return gauge_loss(ld.exp(), mask); }, log_d);
@@ -235,8 +269,8 @@ TEST(Losses, GradientsMatchFiniteDifferences) {
   const at::Tensor bumpy = gt + 0.15 * at::randn({2, 4, 5, 3}, kDouble);
   expect_gradient_matches([&](const at::Tensor& p) { return normal_loss(p, gt, mask); }, bumpy);
   // L_mask.
-  expect_gradient_matches(
-      [&](const at::Tensor& logits) { return mask_loss(logits, mask, ~mask); }, at::randn({2, 4, 5}, kDouble));
+  expect_gradient_matches([&](const at::Tensor& logits) { return mask_loss(logits, mask, ~mask); },
+                          at::randn({2, 4, 5}, kDouble));
 }
 
 TEST(Losses, RejectsBadShapes) {

@@ -15,9 +15,9 @@
 
 #include <unistd.h>
 
+#include "omnipoint/camera/camera.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
-#include "omnipoint/camera/camera.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/model/state_dict.h"
@@ -33,32 +33,35 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 json tiny_model_json() {
-  return json::parse(test::tiny_omnipoint_config_json("ray_distance", R"({"encoder_dim": 8, "splat_radius": 2})"));
+  return json::parse(
+      test::tiny_omnipoint_config_json("ray_distance", R"({"encoder_dim": 8, "splat_radius": 2})"));
 }
 
 json tiny_config(const std::string& output_dir) {
-  return {{"output_dir", output_dir},
-          {"seed", 5},
-          {"threads", 1},
-          {"model", tiny_model_json()},
-          {"data",
-           {{"batch_size", 2},
-            {"image_size", {28, 28}},
-            {"num_tokens", {2, 4}},
-            {"datasets",
-             {{{"weight", 1},
-               {"synth",
-                {{"scenes", {"indoor", "outdoor", "object"}},
-                 {"cameras", {"PINHOLE 28 28 20 20 14 14", "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0"}}}}}}}}},
-          {"conditions", {{"probability", 0.9}, {"sparse_ratio", {0.005, 0.01}}}},
-          {"loss", {{"local", {{"levels", {4}}, {"patches_per_item", 4}, {"min_points", 8}}}}},
-          {"ema", {{"decay", 0.9}}},
-          {"stages",
-           {{{"stage", 1}, {"steps", 2}, {"lr_backbone", 1e-3}, {"lr_heads", 1e-3}, {"decay_every", 1}},
-            {{"stage", 2}, {"steps", 2}, {"lr_backbone", 5e-4}, {"lr_heads", 5e-4}},
-            {{"stage", 3}, {"steps", 1}, {"lr_backbone", 0}, {"lr_heads", 1e-3}}}},
-          {"checkpoint_every", 0},
-          {"log_every", 1}};
+  return {
+      {"output_dir", output_dir},
+      {"seed", 5},
+      {"threads", 1},
+      {"model", tiny_model_json()},
+      {"data",
+       {{"batch_size", 2},
+        {"image_size", {28, 28}},
+        {"num_tokens", {2, 4}},
+        {"datasets",
+         {{{"weight", 1},
+           {"synth",
+            {{"scenes", {"indoor", "outdoor", "object"}},
+             {"cameras",
+              {"PINHOLE 28 28 20 20 14 14", "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0"}}}}}}}}},
+      {"conditions", {{"probability", 0.9}, {"sparse_ratio", {0.005, 0.01}}}},
+      {"loss", {{"local", {{"levels", {4}}, {"patches_per_item", 4}, {"min_points", 8}}}}},
+      {"ema", {{"decay", 0.9}}},
+      {"stages",
+       {{{"stage", 1}, {"steps", 2}, {"lr_backbone", 1e-3}, {"lr_heads", 1e-3}, {"decay_every", 1}},
+        {{"stage", 2}, {"steps", 2}, {"lr_backbone", 5e-4}, {"lr_heads", 5e-4}},
+        {{"stage", 3}, {"steps", 1}, {"lr_backbone", 0}, {"lr_heads", 1e-3}}}},
+      {"checkpoint_every", 0},
+      {"log_every", 1}};
 }
 
 model::OmniPointModel tiny_model(const TrainConfig& config) {
@@ -67,7 +70,8 @@ model::OmniPointModel tiny_model(const TrainConfig& config) {
 }
 
 std::string temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("omnipoint_train_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("omnipoint_train_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();
@@ -133,8 +137,8 @@ json single_camera_config(const std::string& spec, const json& augment) {
 
 TEST(BatchSource, P2ARendersPerspectiveItemsIntoWideCamerasFromStageTwo) {
   const std::string pinhole = "PINHOLE 28 28 20 20 14 14";
-  const TrainConfig config =
-      TrainConfig::from_json(single_camera_config(pinhole, {{"p2a", true}, {"p2a_probability", 1.0}}));
+  const TrainConfig config = TrainConfig::from_json(
+      single_camera_config(pinhole, {{"p2a", true}, {"p2a_probability", 1.0}}));
   const BatchSource source(config);
   const at::Tensor pinhole_rays = camera::parse_camera(pinhole).ray_map(at::kFloat).rays;
   // Stage 1 (no conditions): the items as the data gives them.
@@ -152,7 +156,8 @@ TEST(BatchSource, P2ARendersPerspectiveItemsIntoWideCamerasFromStageTwo) {
     EXPECT_LT(rays.select(-1, 2).min().item<double>(), 0.5) << "item " << k;
     const at::Tensor mask = augmented.targets.mask[k];
     EXPECT_GT(mask.sum().item<int64_t>(), 0) << "item " << k;
-    EXPECT_LT(mask.sum().item<int64_t>(), mask.numel()) << "item " << k;  // beyond the source frustum
+    EXPECT_LT(mask.sum().item<int64_t>(), mask.numel())
+        << "item " << k;  // beyond the source frustum
     EXPECT_TRUE((augmented.targets.distance[k].masked_select(mask) > 0).all().item<bool>());
   }
   // Unlabelled pixels of a rendered view are unknown, not sky.
@@ -164,7 +169,8 @@ TEST(BatchSource, A2PReplacesWideLabelsWithTheTeachersStitchedPrediction) {
   const std::string teacher_path = dir + "/teacher.safetensors";
   const TrainConfig base = TrainConfig::from_json(tiny_config("x"));
   const model::OmniPointModel teacher = tiny_model(base);
-  io::write_safetensors(teacher_path, model::state_dict(*teacher), model::omnipoint_metadata(teacher->config()));
+  io::write_safetensors(teacher_path, model::state_dict(*teacher),
+                        model::omnipoint_metadata(teacher->config()));
 
   const std::string fisheye = "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0";
   const json augment = {{"a2p", true}, {"a2p_teacher", teacher_path}, {"a2p_teacher_tokens", 4}};
@@ -176,10 +182,12 @@ TEST(BatchSource, A2PReplacesWideLabelsWithTheTeachersStitchedPrediction) {
   EXPECT_FALSE(pseudo.targets.mask_negative.any().item<bool>());
   const at::Tensor mask = pseudo.targets.mask;
   EXPECT_GT(mask.sum().item<int64_t>(), 0);
-  EXPECT_LT(mask.sum().item<int64_t>(), plain.targets.rays.select(-1, 2).ne(0).sum().item<int64_t>());
+  EXPECT_LT(mask.sum().item<int64_t>(),
+            plain.targets.rays.select(-1, 2).ne(0).sum().item<int64_t>());
   EXPECT_TRUE((pseudo.targets.distance.masked_select(mask) > 0).all().item<bool>());
   // The labels are the teacher's, not the ground truth.
-  EXPECT_FALSE(at::allclose(pseudo.targets.distance.masked_select(mask), plain.targets.distance.masked_select(mask)));
+  EXPECT_FALSE(at::allclose(pseudo.targets.distance.masked_select(mask),
+                            plain.targets.distance.masked_select(mask)));
   // The sparse-depth condition comes from the pseudo-labels.
   const at::Tensor sparse = pseudo.condition_sparse_depth, has = sparse > 0;
   EXPECT_TRUE(at::equal(sparse.masked_select(has), pseudo.targets.distance.masked_select(has)));
@@ -203,7 +211,9 @@ TEST(Trainer, StageTwoTrainsWithP2AAndA2P) {
   io::write_safetensors(dir + "/teacher.safetensors", model::state_dict(*teacher),
                         model::omnipoint_metadata(teacher->config()));
   json json_config = tiny_config(dir);
-  json_config["augment"] = {{"p2a", true}, {"p2a_probability", 0.5}, {"a2p", true},
+  json_config["augment"] = {{"p2a", true},
+                            {"p2a_probability", 0.5},
+                            {"a2p", true},
                             {"a2p_teacher", dir + "/teacher.safetensors"}};
   const TrainConfig config = TrainConfig::from_json(json_config);
   Trainer trainer(config, tiny_model(config));
@@ -221,13 +231,17 @@ TEST(BuildModel, OmniPointInitCanChangeOnlyTheConditioning) {
   const TrainConfig base = TrainConfig::from_json(tiny_config("x"));
   const model::OmniPointModel source = tiny_model(base);
   const std::string path = dir + "/stage1.safetensors";
-  io::write_safetensors(path, model::state_dict(*source), model::omnipoint_metadata(source->config()));
+  io::write_safetensors(path, model::state_dict(*source),
+                        model::omnipoint_metadata(source->config()));
 
   json config = tiny_config(dir);
   config.erase("model");
   config["init"] = {{"from", "omnipoint"}, {"path", path}};
-  config["model"] = {{"conditioning", {{"encoder_dim", 8}, {"splat_radius", 2}, {"state_embeddings", false},
-                                       {"gaussian_smoothing", false}}},
+  config["model"] = {{"conditioning",
+                      {{"encoder_dim", 8},
+                       {"splat_radius", 2},
+                       {"state_embeddings", false},
+                       {"gaussian_smoothing", false}}},
                      {"num_tokens_range", {3, 4}}};
   const model::OmniPointModel changed = build_model(TrainConfig::from_json(config));
   EXPECT_EQ(changed->config().num_tokens_range, (std::array<int64_t, 2>{3, 4}));
@@ -263,7 +277,8 @@ TEST(Trainer, ScheduleEmaAndStageThreeFreezing) {
   const auto after = model::state_dict(*trainer.model());
   const std::string name = "encoder.backbone.cls_token";
   ASSERT_TRUE(after.count(name));
-  EXPECT_TRUE(at::allclose(trainer.ema().at(name), 0.9 * before.at(name) + 0.1 * after.at(name), 1e-6, 1e-7));
+  EXPECT_TRUE(at::allclose(trainer.ema().at(name), 0.9 * before.at(name) + 0.1 * after.at(name),
+                           1e-6, 1e-7));
   EXPECT_FALSE(at::equal(before.at(name), after.at(name)));
   EXPECT_DOUBLE_EQ(trainer.train_step().lr_backbone, 0.5e-3);  // × 0.5 every step
   EXPECT_EQ(trainer.train_step().stage, 2);
@@ -277,8 +292,10 @@ TEST(Trainer, ScheduleEmaAndStageThreeFreezing) {
   int changed = 0;
   for (const auto& [n, t] : model::state_dict(*trainer.model())) {
     const bool same = at::equal(t, stage2.at(n));
-    if (n.rfind("mask_head.", 0) == 0) changed += !same;
-    else EXPECT_TRUE(same) << n << " changed in stage 3";
+    if (n.rfind("mask_head.", 0) == 0)
+      changed += !same;
+    else
+      EXPECT_TRUE(same) << n << " changed in stage 3";
   }
   EXPECT_GT(changed, 0);
 }
@@ -325,7 +342,8 @@ std::map<int64_t, double> losses_by_step(const std::string& log) {
   std::string line;
   while (std::getline(lines, line)) {
     const json record = json::parse(line);
-    if (record.contains("loss")) losses[record.at("step").get<int64_t>()] = record.at("loss").get<double>();
+    if (record.contains("loss"))
+      losses[record.at("step").get<int64_t>()] = record.at("loss").get<double>();
   }
   return losses;
 }
@@ -343,7 +361,9 @@ TEST(TrainCli, ResumedRunEqualsUninterruptedRun) {
   const auto write_config = [&](const std::string& name) {
     json config = tiny_config(root + "/" + name);
     config["checkpoint_every"] = 2;
-    config["augment"] = {{"p2a", true}, {"p2a_probability", 0.5}, {"a2p", true},
+    config["augment"] = {{"p2a", true},
+                         {"p2a_probability", 0.5},
+                         {"a2p", true},
                          {"a2p_teacher", root + "/teacher.safetensors"}};
     const std::string path = root + "/" + name + ".json";
     std::ofstream(path) << config.dump(2);
@@ -394,15 +414,17 @@ TEST(TrainCli, KilledRunResumesToTheSameWeights) {
   bool interrupted = false;
   for (const char* delay : {"1", "2", "4", "8"}) {
     fs::remove_all(root + "/killed");
-    std::system(("timeout -s KILL " + std::string(delay) + " " + OMNIPOINT_CLI + " train --config " + killed +
-                 " 2>/dev/null")
+    std::system(("timeout -s KILL " + std::string(delay) + " " + OMNIPOINT_CLI +
+                 " train --config " + killed + " 2>/dev/null")
                     .c_str());
-    interrupted = fs::exists(root + "/killed/checkpoints/latest") && !fs::exists(root + "/killed/model.safetensors");
+    interrupted = fs::exists(root + "/killed/checkpoints/latest") &&
+                  !fs::exists(root + "/killed/model.safetensors");
     if (interrupted) break;
   }
   ASSERT_TRUE(interrupted) << "no delay killed the run between its first checkpoint and its end";
   ASSERT_EQ(run_cli("--config " + killed + " --resume " + root + "/killed"), 0);
-  EXPECT_EQ(losses_by_step(root + "/killed/log.jsonl"), losses_by_step(root + "/straight/log.jsonl"));
+  EXPECT_EQ(losses_by_step(root + "/killed/log.jsonl"),
+            losses_by_step(root + "/straight/log.jsonl"));
   for (const std::string file : {"model.safetensors", "model_ema.safetensors"}) {
     const auto a = io::read_safetensors(root + "/straight/" + file, std::nullopt).tensors;
     const auto b = io::read_safetensors(root + "/killed/" + file, std::nullopt).tensors;
@@ -457,14 +479,16 @@ TEST(TrainCli, TwoGlooRanksEqualOneProcessOnTheCombinedBatch) {
   const std::string single = write_config("single", 2), ranks = write_config("ranks", 1);
   ASSERT_EQ(run_cli("--config " + single), 0);
   const std::string port = std::to_string(20000 + ::getpid() % 20000);
-  ASSERT_EQ(std::system(("MASTER_PORT=" + port + " " + std::string(OMNIPOINT_CLI) + " train --config " + ranks +
-                         " --nproc 2 2>/dev/null").c_str()),
+  ASSERT_EQ(std::system(("MASTER_PORT=" + port + " " + std::string(OMNIPOINT_CLI) +
+                         " train --config " + ranks + " --nproc 2 2>/dev/null")
+                            .c_str()),
             0);
   const auto a = io::read_safetensors(root + "/single/model.safetensors", std::nullopt).tensors;
   const auto b = io::read_safetensors(root + "/ranks/model.safetensors", std::nullopt).tensors;
   ASSERT_EQ(a.size(), b.size());
   double worst = 0;
-  for (const auto& [name, t] : a) worst = std::max(worst, (t - b.at(name)).abs().max().item<double>());
+  for (const auto& [name, t] : a)
+    worst = std::max(worst, (t - b.at(name)).abs().max().item<double>());
   EXPECT_LE(worst, 1e-6);
   // Only rank 0 wrote the log: one record per step.
   EXPECT_EQ(losses_by_step(root + "/ranks/log.jsonl").size(), 5u);

@@ -24,67 +24,83 @@ bool sees_axis(const camera::Camera& wide, const PerspectiveView& view) {
 }
 
 void check_image(const camera::Camera& wide, const at::Tensor& image, const std::string& where) {
-  if (!image.defined() || image.dim() != 3 || image.size(0) != wide.height() || image.size(1) != wide.width() ||
-      !at::isFloatingType(image.scalar_type())) {
-    throw std::invalid_argument(where + ": the image must be a float (" + std::to_string(wide.height()) + ", " +
-                                std::to_string(wide.width()) + ", C) tensor matching the wide camera");
+  if (!image.defined() || image.dim() != 3 || image.size(0) != wide.height() ||
+      image.size(1) != wide.width() || !at::isFloatingType(image.scalar_type())) {
+    throw std::invalid_argument(
+        where + ": the image must be a float (" + std::to_string(wide.height()) + ", " +
+        std::to_string(wide.width()) + ", C) tensor matching the wide camera");
   }
 }
 
 }  // namespace
 
-PerspectiveView make_perspective_view(double fov_deg, double yaw_deg, double pitch_deg, int64_t width, int64_t height,
-                                      double roll_deg) {
-  return {camera::centred_pinhole(fov_deg, width, height), rotation_from_angles(yaw_deg, pitch_deg, roll_deg)};
+PerspectiveView make_perspective_view(double fov_deg, double yaw_deg, double pitch_deg,
+                                      int64_t width, int64_t height, double roll_deg) {
+  return {camera::centred_pinhole(fov_deg, width, height),
+          rotation_from_angles(yaw_deg, pitch_deg, roll_deg)};
 }
 
 PerspectiveView sample_perspective_view(const camera::Camera& wide, const A2PViewDistribution& d,
                                         at::Generator generator) {
-  if (!(d.min_fov_deg > 0 && d.max_fov_deg < 180 && d.min_fov_deg <= d.max_fov_deg) || d.min_size < 8 ||
-      d.min_size > d.max_size) {
-    throw std::invalid_argument("sample_perspective_view: need 0 < min_fov <= max_fov < 180 and 8 <= min_size <= max_size");
+  if (!(d.min_fov_deg > 0 && d.max_fov_deg < 180 && d.min_fov_deg <= d.max_fov_deg) ||
+      d.min_size < 8 || d.min_size > d.max_size) {
+    throw std::invalid_argument(
+        "sample_perspective_view: need 0 < min_fov <= max_fov < 180 and 8 <= min_size <= max_size");
   }
   for (int attempt = 0; attempt < 1000; ++attempt) {
     const double fov = uniform(generator, d.min_fov_deg, d.max_fov_deg);
     const double aspect = uniform(generator, 0.75, 4.0 / 3.0);
-    const auto long_side = static_cast<int64_t>(std::floor(uniform(generator, d.min_size, d.max_size + 1.0 - 1e-9)));
-    const int64_t width = aspect >= 1 ? long_side : std::max<int64_t>(8, std::llround(long_side * aspect));
-    const int64_t height = aspect >= 1 ? std::max<int64_t>(8, std::llround(long_side / aspect)) : long_side;
-    const PerspectiveView view = make_perspective_view(fov, uniform(generator, -180, 180),
-                                                       uniform(generator, -d.max_pitch_deg, d.max_pitch_deg), width, height);
+    const auto long_side =
+        static_cast<int64_t>(std::floor(uniform(generator, d.min_size, d.max_size + 1.0 - 1e-9)));
+    const int64_t width =
+        aspect >= 1 ? long_side : std::max<int64_t>(8, std::llround(long_side * aspect));
+    const int64_t height =
+        aspect >= 1 ? std::max<int64_t>(8, std::llround(long_side / aspect)) : long_side;
+    const PerspectiveView view =
+        make_perspective_view(fov, uniform(generator, -180, 180),
+                              uniform(generator, -d.max_pitch_deg, d.max_pitch_deg), width, height);
     if (sees_axis(wide, view)) return view;
   }
   throw std::invalid_argument("sample_perspective_view: the wide camera " + wide.to_spec() +
                               " sees none of the sampled view directions");
 }
 
-ExtractedView extract_view(const camera::Camera& wide, const at::Tensor& image, const PerspectiveView& view,
-                           const at::Tensor& wide_valid) {
+ExtractedView extract_view(const camera::Camera& wide, const at::Tensor& image,
+                           const PerspectiveView& view, const at::Tensor& wide_valid) {
   check_image(wide, image, "extract_view");
   const camera::Rays rays = view.camera.ray_map(image.options().dtype(at::kDouble));
   const at::Tensor wide_rays = rays.rays.matmul(view.rotation.to(at::kDouble).t());
   const camera::Pixels projected = wide.project(wide_rays);
   at::Tensor valid = rays.valid & projected.valid & wide.inside_image(projected.pixels);
   if (wide_valid.defined()) {
-    if (wide_valid.sizes() != at::IntArrayRef({wide.height(), wide.width()}) || wide_valid.scalar_type() != at::kBool) {
-      throw std::invalid_argument("extract_view: wide_valid must be a bool (H, W) map matching the wide camera");
+    if (wide_valid.sizes() != at::IntArrayRef({wide.height(), wide.width()}) ||
+        wide_valid.scalar_type() != at::kBool) {
+      throw std::invalid_argument(
+          "extract_view: wide_valid must be a bool (H, W) map matching the wide camera");
     }
-    const at::Tensor col = projected.pixels.select(-1, 0).floor().clamp(0, wide.width() - 1).to(at::kLong);
-    const at::Tensor row = projected.pixels.select(-1, 1).floor().clamp(0, wide.height() - 1).to(at::kLong);
-    valid = valid & wide_valid.to(projected.pixels.device()).reshape(-1).index_select(0, (row * wide.width() + col).reshape(-1)).view_as(valid);
+    const at::Tensor col =
+        projected.pixels.select(-1, 0).floor().clamp(0, wide.width() - 1).to(at::kLong);
+    const at::Tensor row =
+        projected.pixels.select(-1, 1).floor().clamp(0, wide.height() - 1).to(at::kLong);
+    valid = valid & wide_valid.to(projected.pixels.device())
+                        .reshape(-1)
+                        .index_select(0, (row * wide.width() + col).reshape(-1))
+                        .view_as(valid);
   }
   const at::Tensor sampled = sample_image(image, projected.pixels);
   return {at::where(valid.unsqueeze(-1), sampled, at::zeros_like(sampled)), valid};
 }
 
-PseudoLabel stitch_view(const camera::Camera& wide, const PerspectiveView& view, const TeacherPrediction& prediction,
-                        double tolerance) {
+PseudoLabel stitch_view(const camera::Camera& wide, const PerspectiveView& view,
+                        const TeacherPrediction& prediction, double tolerance) {
   const int64_t h = view.camera.height(), w = view.camera.width();
   if (!prediction.distance.defined() || prediction.distance.sizes() != at::IntArrayRef({h, w}) ||
-      !prediction.confident.defined() || prediction.confident.sizes() != prediction.distance.sizes() ||
+      !prediction.confident.defined() ||
+      prediction.confident.sizes() != prediction.distance.sizes() ||
       prediction.confident.scalar_type() != at::kBool) {
-    throw std::invalid_argument("stitch_view: the prediction needs distance (" + std::to_string(h) + ", " +
-                                std::to_string(w) + ") and a bool confident map of the view's size");
+    throw std::invalid_argument("stitch_view: the prediction needs distance (" + std::to_string(h) +
+                                ", " + std::to_string(w) +
+                                ") and a bool confident map of the view's size");
   }
   const auto opts = prediction.distance.options().dtype(at::kDouble);
   const camera::Rays wide_rays = wide.ray_map(opts);
@@ -93,27 +109,32 @@ PseudoLabel stitch_view(const camera::Camera& wide, const PerspectiveView& view,
   // The rays are unit and the centres shared, so the teacher's distance along its own ray
   // is the distance along the wide ray through the same point.
   const at::Tensor distance = prediction.distance.to(opts);
-  const SampledDistance sampled = sample_distance(
-      distance, prediction.confident & at::isfinite(distance) & (distance > 0), projected.pixels, tolerance);
+  const SampledDistance sampled =
+      sample_distance(distance, prediction.confident & at::isfinite(distance) & (distance > 0),
+                      projected.pixels, tolerance);
   const at::Tensor mask = wide_rays.valid & projected.valid & (view_rays.select(-1, 2) > 0) &
                           view.camera.inside_image(projected.pixels) & sampled.ok;
   const auto out_type = prediction.distance.scalar_type();
   return {at::where(mask, sampled.value, at::zeros_like(sampled.value)).to(out_type), mask};
 }
 
-A2PResult any_to_perspective(const camera::Camera& wide, const at::Tensor& image, const PerspectiveView& view,
-                             const Teacher& teacher, const at::Tensor& wide_valid, double tolerance) {
+A2PResult any_to_perspective(const camera::Camera& wide, const at::Tensor& image,
+                             const PerspectiveView& view, const Teacher& teacher,
+                             const at::Tensor& wide_valid, double tolerance) {
   A2PResult result{view, extract_view(wide, image, view, wide_valid), {}, {}};
   result.prediction = teacher(result.extracted.image, view.camera);
-  if (!result.prediction.confident.defined()) throw std::invalid_argument("any_to_perspective: the teacher gave no confident map");
+  if (!result.prediction.confident.defined())
+    throw std::invalid_argument("any_to_perspective: the teacher gave no confident map");
   result.prediction.confident = result.prediction.confident & result.extracted.valid;
   result.label = stitch_view(wide, view, result.prediction, tolerance);
   return result;
 }
 
-std::vector<PerspectiveView> tiling_views(const camera::Camera& wide, const MultiViewOptions& options) {
+std::vector<PerspectiveView> tiling_views(const camera::Camera& wide,
+                                          const MultiViewOptions& options) {
   if (!(options.fov_deg > 0 && options.fov_deg < 180) || options.view_size < 8) {
-    throw std::invalid_argument("tiling_views: need 0 < fov < 180 degrees and a view size of at least 8");
+    throw std::invalid_argument(
+        "tiling_views: need 0 < fov < 180 degrees and a view size of at least 8");
   }
   std::vector<std::pair<double, double>> directions;  // (yaw, pitch)
   for (int i = 0; i < 8; ++i) directions.emplace_back(-180.0 + 45.0 * i, 0.0);
@@ -124,14 +145,16 @@ std::vector<PerspectiveView> tiling_views(const camera::Camera& wide, const Mult
   directions.emplace_back(0.0, -90.0);
   std::vector<PerspectiveView> views;
   for (const auto& [yaw, pitch] : directions) {
-    PerspectiveView view = make_perspective_view(options.fov_deg, yaw, pitch, options.view_size, options.view_size);
+    PerspectiveView view =
+        make_perspective_view(options.fov_deg, yaw, pitch, options.view_size, options.view_size);
     if (sees_axis(wide, view)) views.push_back(std::move(view));
   }
   return views;
 }
 
-MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::Tensor& image, const Teacher& teacher,
-                                         const MultiViewOptions& options, const at::Tensor& wide_valid) {
+MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::Tensor& image,
+                                         const Teacher& teacher, const MultiViewOptions& options,
+                                         const at::Tensor& wide_valid) {
   check_image(wide, image, "predict_wide_from_views");
   const std::vector<PerspectiveView> views = tiling_views(wide, options);
   std::vector<PseudoLabel> labels;
@@ -139,17 +162,20 @@ MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::T
   const auto opts = image.options().dtype(at::kDouble);
   const at::Tensor wide_rays = wide.ray_map(opts).rays;
   for (const auto& view : views) {
-    const A2PResult one = any_to_perspective(wide, image, view, teacher, wide_valid, options.tolerance);
+    const A2PResult one =
+        any_to_perspective(wide, image, view, teacher, wide_valid, options.tolerance);
     // Blend weight: the cosine to the view axis, squared, so seams fall off smoothly.
     const at::Tensor cosine = wide_rays.matmul(view.rotation.to(opts).select(1, 2)).clamp_min(0);
     labels.push_back(one.label);
     weights.push_back(at::where(one.label.mask, cosine * cosine, at::zeros_like(cosine)));
   }
   const int64_t n = static_cast<int64_t>(views.size());
-  MergedPrediction merged{at::zeros({wide.height(), wide.width()}, opts), at::zeros({wide.height(), wide.width()}, opts.dtype(at::kBool)),
+  MergedPrediction merged{at::zeros({wide.height(), wide.width()}, opts),
+                          at::zeros({wide.height(), wide.width()}, opts.dtype(at::kBool)),
                           std::vector<double>(n, 1.0)};
   if (n == 0) return merged;
-  at::Tensor numerator = at::zeros_like(merged.distance), denominator = at::zeros_like(merged.distance);
+  at::Tensor numerator = at::zeros_like(merged.distance),
+             denominator = at::zeros_like(merged.distance);
   std::vector<bool> done(n, false);
   for (int64_t step = 0; step < n; ++step) {
     const at::Tensor covered = denominator > 0;
@@ -167,7 +193,8 @@ MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::T
     double scale = 1.0;
     if (best_overlap >= options.min_overlap) {
       const at::Tensor overlap = labels[best].mask & covered;
-      const at::Tensor ratio = (numerator / denominator.clamp_min(1e-300)).masked_select(overlap) / label.masked_select(overlap);
+      const at::Tensor ratio = (numerator / denominator.clamp_min(1e-300)).masked_select(overlap) /
+                               label.masked_select(overlap);
       scale = ratio.median().item<double>();
     }
     merged.view_scales[best] = scale;
@@ -175,8 +202,9 @@ MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::T
     denominator = denominator + weights[best];
   }
   merged.mask = denominator > 0;
-  merged.distance = at::where(merged.mask, numerator / denominator.clamp_min(1e-300), at::zeros_like(numerator))
-                        .to(image.scalar_type());
+  merged.distance =
+      at::where(merged.mask, numerator / denominator.clamp_min(1e-300), at::zeros_like(numerator))
+          .to(image.scalar_type());
   return merged;
 }
 

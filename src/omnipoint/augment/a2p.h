@@ -28,8 +28,8 @@ struct PerspectiveView {
   at::Tensor rotation;
 };
 // A centred pinhole of horizontal `fov_deg` looking along (yaw, pitch) (warp.h angles).
-PerspectiveView make_perspective_view(double fov_deg, double yaw_deg, double pitch_deg, int64_t width,
-                                      int64_t height, double roll_deg = 0.0);
+PerspectiveView make_perspective_view(double fov_deg, double yaw_deg, double pitch_deg,
+                                      int64_t width, int64_t height, double roll_deg = 0.0);
 
 struct A2PViewDistribution {
   double min_fov_deg = 50, max_fov_deg = 100;
@@ -37,7 +37,8 @@ struct A2PViewDistribution {
   double max_pitch_deg = 45;               // yaw: any within the wide camera's coverage
 };
 // ONE random view whose axis the wide camera sees (its centre ray projects into the image).
-PerspectiveView sample_perspective_view(const camera::Camera& wide, const A2PViewDistribution& distribution,
+PerspectiveView sample_perspective_view(const camera::Camera& wide,
+                                        const A2PViewDistribution& distribution,
                                         at::Generator generator);
 
 struct ExtractedView {
@@ -46,8 +47,8 @@ struct ExtractedView {
 };
 // Inverse warp of a wide image (H, W, C) into the view; `wide_valid` (H, W) bool optional
 // (e.g. a fisheye's lens circle).
-ExtractedView extract_view(const camera::Camera& wide, const at::Tensor& image, const PerspectiveView& view,
-                           const at::Tensor& wide_valid = {});
+ExtractedView extract_view(const camera::Camera& wide, const at::Tensor& image,
+                           const PerspectiveView& view, const at::Tensor& wide_valid = {});
 
 // A teacher's prediction for a pinhole image: rays (h, w, 3) in the view frame, distances
 // (h, w) along them (metric or up to scale), confident (h, w) bool.
@@ -56,7 +57,8 @@ struct TeacherPrediction {
   at::Tensor distance;
   at::Tensor confident;
 };
-using Teacher = std::function<TeacherPrediction(const at::Tensor& image, const camera::Camera& camera)>;
+using Teacher =
+    std::function<TeacherPrediction(const at::Tensor& image, const camera::Camera& camera)>;
 
 struct PseudoLabel {
   at::Tensor distance;  // (H, W) along the wide camera's rays; 0 outside mask
@@ -64,8 +66,8 @@ struct PseudoLabel {
 };
 // Stitches a view's predicted distance back into the wide frame: only wide pixels whose
 // rays land inside the view (in front of it) on confident, depth-consistent predictions.
-PseudoLabel stitch_view(const camera::Camera& wide, const PerspectiveView& view, const TeacherPrediction& prediction,
-                        double tolerance = 0.05);
+PseudoLabel stitch_view(const camera::Camera& wide, const PerspectiveView& view,
+                        const TeacherPrediction& prediction, double tolerance = 0.05);
 
 struct A2PResult {
   PerspectiveView view;
@@ -75,18 +77,20 @@ struct A2PResult {
 };
 // The training-time A2P step: extract one view, run the teacher, stitch the label back. The
 // label mask also requires the view pixel to be seen by the wide camera.
-A2PResult any_to_perspective(const camera::Camera& wide, const at::Tensor& image, const PerspectiveView& view,
-                             const Teacher& teacher, const at::Tensor& wide_valid = {}, double tolerance = 0.05);
+A2PResult any_to_perspective(const camera::Camera& wide, const at::Tensor& image,
+                             const PerspectiveView& view, const Teacher& teacher,
+                             const at::Tensor& wide_valid = {}, double tolerance = 0.05);
 
 struct MultiViewOptions {
-  double fov_deg = 100;        // each view's horizontal and vertical FoV (square views)
+  double fov_deg = 100;  // each view's horizontal and vertical FoV (square views)
   int64_t view_size = 518;
   double tolerance = 0.05;
-  int64_t min_overlap = 64;    // pixels of overlap needed to align a view's scale
+  int64_t min_overlap = 64;  // pixels of overlap needed to align a view's scale
 };
 // Views whose union covers the wide camera: for a full panorama a ring of 8 at the horizon,
 // rings of 4 at ±60° and the two poles; for other cameras the subset whose axes it sees.
-std::vector<PerspectiveView> tiling_views(const camera::Camera& wide, const MultiViewOptions& options = {});
+std::vector<PerspectiveView> tiling_views(const camera::Camera& wide,
+                                          const MultiViewOptions& options = {});
 
 struct MergedPrediction {
   at::Tensor distance;              // (H, W) in the scale of the first (largest) view
@@ -98,7 +102,9 @@ struct MergedPrediction {
 // median ratio merged / view over the overlap (robust to outliers), then blended with
 // weights that fall off towards the view's border. A view that overlaps nothing keeps its
 // own scale.
-MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::Tensor& image, const Teacher& teacher,
-                                         const MultiViewOptions& options = {}, const at::Tensor& wide_valid = {});
+MergedPrediction predict_wide_from_views(const camera::Camera& wide, const at::Tensor& image,
+                                         const Teacher& teacher,
+                                         const MultiViewOptions& options = {},
+                                         const at::Tensor& wide_valid = {});
 
 }  // namespace omnipoint::augment

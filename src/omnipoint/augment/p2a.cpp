@@ -18,21 +18,25 @@ void check_inputs(const camera::Camera& source, const at::Tensor& image, const a
                   const at::Tensor& mask, const VirtualView& target, const P2AOptions& options) {
   const std::string where = "perspective_to_any: ";
   const auto h = source.height(), w = source.width();
-  if (!image.defined() || image.dim() != 3 || image.size(0) != h || image.size(1) != w || image.size(2) != 3 ||
-      !at::isFloatingType(image.scalar_type())) {
-    throw std::invalid_argument(where + "image must be a float (" + std::to_string(h) + ", " + std::to_string(w) +
-                                ", 3) tensor matching the source camera");
+  if (!image.defined() || image.dim() != 3 || image.size(0) != h || image.size(1) != w ||
+      image.size(2) != 3 || !at::isFloatingType(image.scalar_type())) {
+    throw std::invalid_argument(where + "image must be a float (" + std::to_string(h) + ", " +
+                                std::to_string(w) + ", 3) tensor matching the source camera");
   }
-  if (!distance.defined() || distance.sizes() != at::IntArrayRef({h, w}) || !at::isFloatingType(distance.scalar_type())) {
-    throw std::invalid_argument(where + "distance must be a float (H, W) tensor matching the source camera");
+  if (!distance.defined() || distance.sizes() != at::IntArrayRef({h, w}) ||
+      !at::isFloatingType(distance.scalar_type())) {
+    throw std::invalid_argument(
+        where + "distance must be a float (H, W) tensor matching the source camera");
   }
   if (!mask.defined() || mask.sizes() != distance.sizes() || mask.scalar_type() != at::kBool) {
-    throw std::invalid_argument(where + "mask must be a bool (H, W) tensor matching the source camera");
+    throw std::invalid_argument(where +
+                                "mask must be a bool (H, W) tensor matching the source camera");
   }
   if (target.rotation.defined() && target.rotation.sizes() != at::IntArrayRef({3, 3})) {
     throw std::invalid_argument(where + "the rotation must be (3, 3)");
   }
-  if (target.centre.defined() && target.centre.numel() != 3) throw std::invalid_argument(where + "the centre must have 3 entries");
+  if (target.centre.defined() && target.centre.numel() != 3)
+    throw std::invalid_argument(where + "the centre must have 3 entries");
   if (options.supersample < 0 || options.supersample > 8) {
     throw std::invalid_argument(where + "supersample must be in [0, 8] (0: automatic)");
   }
@@ -74,7 +78,8 @@ at::Tensor pixel_angle(const camera::Camera& camera, const at::Tensor& pixels) {
 
 // How many target pixels one source pixel spans at most (a magnification), sampled on a
 // 17 × 17 probe grid of the target, with a 25 % margin. 1 where nothing overlaps.
-double magnification(const camera::Camera& source, const VirtualView& target, const at::Tensor& rotation) {
+double magnification(const camera::Camera& source, const VirtualView& target,
+                     const at::Tensor& rotation) {
   const auto opts = at::TensorOptions().dtype(at::kDouble);
   const at::Tensor xs = at::linspace(0.5, target.camera.width() - 1.5, 17, opts);
   const at::Tensor ys = at::linspace(0.5, target.camera.height() - 1.5, 17, opts);
@@ -84,42 +89,48 @@ double magnification(const camera::Camera& source, const VirtualView& target, co
   const camera::Pixels in_source = source.project(rays.rays.matmul(rotation.to(opts).t()));
   const at::Tensor ok = rays.valid & in_source.valid & source.inside_image(in_source.pixels);
   if (!ok.any().item<bool>()) return 1.0;
-  const at::Tensor ratio = pixel_angle(source, in_source.pixels.index({ok})) / pixel_angle(target.camera, probes.index({ok}));
+  const at::Tensor ratio = pixel_angle(source, in_source.pixels.index({ok})) /
+                           pixel_angle(target.camera, probes.index({ok}));
   const at::Tensor finite = ratio.masked_select(at::isfinite(ratio));
   return finite.numel() > 0 ? 1.25 * finite.max().item<double>() : 1.0;
 }
 
 }  // namespace
 
-P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& image, const at::Tensor& distance,
-                             const at::Tensor& mask, const VirtualView& target, const P2AOptions& options) {
+P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& image,
+                             const at::Tensor& distance, const at::Tensor& mask,
+                             const VirtualView& target, const P2AOptions& options) {
   check_inputs(source, image, distance, mask, target, options);
   const auto opts = distance.options();
   const int64_t sh = source.height(), sw = source.width();
   const int64_t th = target.camera.height(), tw = target.camera.width();
-  const at::Tensor rotation = target.rotation.defined() ? target.rotation.to(opts) : at::eye(3, opts);
+  const at::Tensor rotation =
+      target.rotation.defined() ? target.rotation.to(opts) : at::eye(3, opts);
   // Automatic supersampling: the smallest s (at most 4) that leaves no gaps between splats.
   const double magnify = magnification(source, target, rotation);
-  const int64_t s = options.supersample > 0 ? options.supersample
-                                            : std::clamp<int64_t>(static_cast<int64_t>(std::ceil(magnify)), 1, 4);
+  const int64_t s = options.supersample > 0
+                        ? options.supersample
+                        : std::clamp<int64_t>(static_cast<int64_t>(std::ceil(magnify)), 1, 4);
   // Gaps (in target pixels) that remain between neighbouring splats.
   const int64_t gap = std::clamp<int64_t>(static_cast<int64_t>(std::ceil(magnify / s)) - 1, 0, 3);
-  const at::Tensor centre = target.centre.defined() ? target.centre.to(opts).reshape({3}) : at::zeros({3}, opts);
+  const at::Tensor centre =
+      target.centre.defined() ? target.centre.to(opts).reshape({3}) : at::zeros({3}, opts);
 
   // 1. Forward splatting of s × s sub-pixel points per source pixel.
   const at::Tensor xs = (at::arange(sw * s, opts) + 0.5) / static_cast<double>(s);
   const at::Tensor ys = (at::arange(sh * s, opts) + 0.5) / static_cast<double>(s);
   const auto grid = at::meshgrid({ys, xs}, "ij");
   const at::Tensor sub_pixels = at::stack({grid[1], grid[0]}, -1).reshape({-1, 2});
-  const at::Tensor source_index = (grid[0].floor().to(at::kLong) * sw + grid[1].floor().to(at::kLong)).reshape(-1);
+  const at::Tensor source_index =
+      (grid[0].floor().to(at::kLong) * sw + grid[1].floor().to(at::kLong)).reshape(-1);
   const camera::Rays sub_rays = source.unproject(sub_pixels);
   // Sub-pixel distances: bilinear where the pixel quad agrees, else the pixel's own value, so
   // splats of a slanted surface are smooth and depth edges stay sharp.
   const at::Tensor own_distance = distance.reshape(-1).index_select(0, source_index);
   const SampledDistance smooth = sample_distance(distance, mask, sub_pixels, options.tolerance);
   const at::Tensor sub_distance = at::where(smooth.ok, smooth.value, own_distance);
-  const at::Tensor sub_ok = sub_rays.valid & mask.reshape(-1).index_select(0, source_index) & at::isfinite(sub_distance) &
-                            (sub_distance > 0);
+  const at::Tensor sub_ok = sub_rays.valid & mask.reshape(-1).index_select(0, source_index) &
+                            at::isfinite(sub_distance) & (sub_distance > 0);
   const at::Tensor points = sub_rays.rays * sub_distance.unsqueeze(-1);
   const at::Tensor virtual_points = (points - centre).matmul(rotation);  // Rᵀ (X − c), row form
   const camera::Pixels projected = target.camera.project(virtual_points);
@@ -127,31 +138,39 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
   // The z-buffer keeps each pixel's nearest point; its value is the point's index (exact in
   // float64 up to 2^53 points).
   const at::Tensor point_index = at::arange(sub_ok.numel(), opts.dtype(at::kDouble));
-  const geometry::SparseDepth zbuffer = geometry::rasterize_nearest(
-      projected.pixels.to(at::kDouble), splat_distance.to(at::kDouble), point_index, sub_ok & projected.valid, tw, th);
+  const geometry::SparseDepth zbuffer =
+      geometry::rasterize_nearest(projected.pixels.to(at::kDouble), splat_distance.to(at::kDouble),
+                                  point_index, sub_ok & projected.valid, tw, th);
   const at::Tensor hit = zbuffer.valid;
   const at::Tensor winner = zbuffer.depth.to(at::kLong).reshape(-1);
-  at::Tensor zdistance = at::where(hit, splat_distance.index_select(0, winner).reshape({th, tw}), at::zeros({th, tw}, opts));
+  at::Tensor zdistance = at::where(hit, splat_distance.index_select(0, winner).reshape({th, tw}),
+                                   at::zeros({th, tw}, opts));
 
   // Optional hole filling of the z-buffer: a gap whose hit neighbours agree in depth.
   const camera::Rays target_rays = target.camera.ray_map(opts);
   const double inf = std::numeric_limits<double>::infinity();  // "no point" in min-reductions
   at::Tensor filled = at::zeros({th, tw}, opts.dtype(at::kBool));
   if (options.fill_holes) {
-    const at::Tensor near = neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, inf)), inf);
-    const at::Tensor far = neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, -inf)), -inf);
+    const at::Tensor near =
+        neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, inf)), inf);
+    const at::Tensor far =
+        neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, -inf)), -inf);
     const at::Tensor count = neighbourhood(hit.to(opts.dtype()), 0.0).sum(0);
     const at::Tensor nmin = std::get<0>(near.min(0)), nmax = std::get<0>(far.max(0));
     const at::Tensor sum = neighbourhood(zdistance, 0.0).sum(0);
-    filled = hit.logical_not() & target_rays.valid & (count >= 4) & (nmax <= nmin * (1.0 + options.tolerance));
+    filled = hit.logical_not() & target_rays.valid & (count >= 4) &
+             (nmax <= nmin * (1.0 + options.tolerance));
     zdistance = at::where(filled, sum / count.clamp_min(1), zdistance);
   }
 
   // 2. Read-back along each target pixel's ray at the z-buffered distance.
-  const at::Tensor surface = centre + (target_rays.rays * zdistance.unsqueeze(-1)).matmul(rotation.t());
+  const at::Tensor surface =
+      centre + (target_rays.rays * zdistance.unsqueeze(-1)).matmul(rotation.t());
   const camera::Pixels in_source = source.project(surface);
-  const SampledDistance readback = sample_distance(distance, mask, in_source.pixels, options.tolerance);
-  const at::Tensor source_surface = source.unproject(in_source.pixels).rays * readback.value.unsqueeze(-1);
+  const SampledDistance readback =
+      sample_distance(distance, mask, in_source.pixels, options.tolerance);
+  const at::Tensor source_surface =
+      source.unproject(in_source.pixels).rays * readback.value.unsqueeze(-1);
   const at::Tensor target_distance = (source_surface - centre).norm(2, -1);
   const at::Tensor colour = sample_image(image, in_source.pixels);
 
@@ -160,12 +179,14 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
   // test catches a background point that won a pixel through a gap between the splats of a
   // magnified foreground: the read-back cannot, as the source may well see that background
   // point from its own position.
-  at::Tensor known = (hit | filled) & target_rays.valid & in_source.valid & source.inside_image(in_source.pixels) &
-                     readback.ok & ((target_distance - zdistance).abs() <= options.occlusion_margin * zdistance);
+  at::Tensor known = (hit | filled) & target_rays.valid & in_source.valid &
+                     source.inside_image(in_source.pixels) & readback.ok &
+                     ((target_distance - zdistance).abs() <= options.occlusion_margin * zdistance);
   if (gap > 0) {
     const int64_t k = 2 * gap + 1;
     const at::Tensor nearest_around =
-        -at::max_pool2d(-at::where(hit, zdistance, at::full_like(zdistance, inf)).unsqueeze(0), {k, k}, {1, 1}, {gap, gap})
+        -at::max_pool2d(-at::where(hit, zdistance, at::full_like(zdistance, inf)).unsqueeze(0),
+                        {k, k}, {1, 1}, {gap, gap})
              .squeeze(0);
     known = known & (zdistance <= nearest_around * (1.0 + options.occlusion_margin));
   }

@@ -40,12 +40,12 @@ struct P2AOptions {
   // s: s × s points per source pixel, so a magnifying target has no gaps; 0 picks the
   // smallest s (at most 4) whose points are denser than the target's pixels everywhere.
   int64_t supersample = 0;
-  double tolerance = 0.05;   // relative depth agreement of pixels interpolated between
+  double tolerance = 0.05;  // relative depth agreement of pixels interpolated between
   // Relative depth difference that means "another surface": between the read-back and the
   // z-buffer, and between a pixel and a nearer splat within the width of the gaps that the
   // supersampling leaves (a background point that won through such a gap).
   double occlusion_margin = 0.1;
-  bool fill_holes = true;    // colour/distance for agreeing z-buffer gaps (never in the mask)
+  bool fill_holes = true;  // colour/distance for agreeing z-buffer gaps (never in the mask)
 };
 
 struct P2AResult {

@@ -13,7 +13,8 @@
 
 namespace omnipoint::augment {
 
-Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens, bool use_intrinsics = true);
+Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens,
+                          bool use_intrinsics = true);
 Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens);
 
 }  // namespace omnipoint::augment

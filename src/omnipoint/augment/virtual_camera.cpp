@@ -18,8 +18,10 @@ double uniform(at::Generator& generator, double lo, double hi) {
 
 int64_t pick(const std::vector<double>& weights, at::Generator& generator) {
   const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
-  if (weights.empty() || !(total > 0) || std::any_of(weights.begin(), weights.end(), [](double w) { return !(w >= 0); })) {
-    throw std::invalid_argument("virtual camera distribution: weights must be non-negative with a positive sum");
+  if (weights.empty() || !(total > 0) ||
+      std::any_of(weights.begin(), weights.end(), [](double w) { return !(w >= 0); })) {
+    throw std::invalid_argument(
+        "virtual camera distribution: weights must be non-negative with a positive sum");
   }
   double u = uniform(generator, 0.0, total);
   for (std::size_t i = 0; i < weights.size(); ++i) {
@@ -31,9 +33,10 @@ int64_t pick(const std::vector<double>& weights, at::Generator& generator) {
 
 }  // namespace
 
-camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t height, double fov_deg,
-                                const std::vector<double>& shape) {
-  if (!(fov_deg > 0 && fov_deg < 360)) throw std::invalid_argument("fisheye_with_fov: the FoV must be in (0, 360) degrees");
+camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t height,
+                                double fov_deg, const std::vector<double>& shape) {
+  if (!(fov_deg > 0 && fov_deg < 360))
+    throw std::invalid_argument("fisheye_with_fov: the FoV must be in (0, 360) degrees");
   const double cx = width / 2.0, cy = height / 2.0;
   std::vector<double> unit_params{1.0, 1.0, cx, cy};
   unit_params.insert(unit_params.end(), shape.begin(), shape.end());
@@ -49,8 +52,9 @@ camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t
                          (radius.narrow(0, 1, 63) > radius.narrow(0, 0, 63)).all().item<bool>() &&
                          (radius > 0).all().item<bool>();
   if (!monotonic) {
-    throw std::invalid_argument("fisheye_with_fov: " + model + " with these parameters does not see " +
-                                std::to_string(fov_deg) + " degrees");
+    throw std::invalid_argument("fisheye_with_fov: " + model +
+                                " with these parameters does not see " + std::to_string(fov_deg) +
+                                " degrees");
   }
   const double focal = std::min(width, height) / 2.0 / radius[63].item<double>();
   std::vector<double> params{focal, focal, cx, cy};
@@ -59,7 +63,8 @@ camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t
 }
 
 VirtualView sample_virtual_view(const VirtualCameraDistribution& d, at::Generator generator) {
-  if (d.weights.size() != 6) throw std::invalid_argument("virtual camera distribution: expected 6 weights");
+  if (d.weights.size() != 6)
+    throw std::invalid_argument("virtual camera distribution: expected 6 weights");
   const int64_t kind = pick(d.weights, generator);
   const double yaw = uniform(generator, -d.max_yaw_deg, d.max_yaw_deg);
   const double pitch = uniform(generator, -d.max_pitch_deg, d.max_pitch_deg);
@@ -73,7 +78,8 @@ VirtualView sample_virtual_view(const VirtualCameraDistribution& d, at::Generato
     const double lat = uniform(generator, d.min_crop_lat_deg, d.max_crop_lat_deg) * M_PI / 180;
     const int64_t width = d.panorama_width;
     const int64_t height = std::max<int64_t>(8, std::llround(width * lat / lon));
-    const camera::Camera crop("EQUIRECTANGULAR", width, height, {-lon / 2, lon / 2, -lat / 2, lat / 2});
+    const camera::Camera crop("EQUIRECTANGULAR", width, height,
+                              {-lon / 2, lon / 2, -lat / 2, lat / 2});
     return {crop, rotation_from_angles(yaw, pitch, roll), {}};
   }
   const double fov = uniform(generator, d.min_fisheye_fov_deg, d.max_fisheye_fov_deg);
@@ -92,7 +98,9 @@ VirtualView sample_virtual_view(const VirtualCameraDistribution& d, at::Generato
     model = "DOUBLE_SPHERE";
     shape = {uniform(generator, -0.2, 0.2), uniform(generator, 0.5, 0.65)};
   }
-  return {fisheye_with_fov(model, d.fisheye_size, d.fisheye_size, fov, shape), rotation_from_angles(yaw, pitch, roll), {}};
+  return {fisheye_with_fov(model, d.fisheye_size, d.fisheye_size, fov, shape),
+          rotation_from_angles(yaw, pitch, roll),
+          {}};
 }
 
 std::vector<bool> select_items(int64_t batch_size, double probability, at::Generator generator) {

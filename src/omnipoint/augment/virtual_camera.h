@@ -24,22 +24,23 @@ struct VirtualCameraDistribution {
   // EQUIRECTANGULAR panorama, a cropped EQUIRECTANGULAR panorama.
   std::vector<double> weights{1, 1, 1, 1, 1, 1};
   double min_fisheye_fov_deg = 120, max_fisheye_fov_deg = 220;
-  int64_t fisheye_size = 512;               // fisheye images are square
-  int64_t panorama_width = 1024;            // full panoramas are W × W/2
+  int64_t fisheye_size = 512;                            // fisheye images are square
+  int64_t panorama_width = 1024;                         // full panoramas are W × W/2
   double min_crop_lon_deg = 90, max_crop_lon_deg = 270;  // cropped panorama extent
   double min_crop_lat_deg = 60, max_crop_lat_deg = 150;
   double max_yaw_deg = 30, max_pitch_deg = 20, max_roll_deg = 10;  // fisheyes, cropped panoramas
 };
 
 // One random virtual camera and its rotation (centre 0).
-VirtualView sample_virtual_view(const VirtualCameraDistribution& distribution, at::Generator generator);
+VirtualView sample_virtual_view(const VirtualCameraDistribution& distribution,
+                                at::Generator generator);
 
 // A centred fisheye of `model` (OPENCV_FISHEYE, MEI, EUCM, DOUBLE_SPHERE; `shape` holds the
 // model's dimensionless parameters in COLMAP order, after fx fy cx cy) whose image circle,
 // inscribed in width × height, spans `fov_deg`. std::invalid_argument when the model cannot
 // see that far with these parameters.
-camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t height, double fov_deg,
-                                const std::vector<double>& shape);
+camera::Camera fisheye_with_fov(const std::string& model, int64_t width, int64_t height,
+                                double fov_deg, const std::vector<double>& shape);
 
 // Which of `batch_size` items to convert, each with `probability`.
 std::vector<bool> select_items(int64_t batch_size, double probability, at::Generator generator);

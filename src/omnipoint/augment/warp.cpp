@@ -22,23 +22,27 @@ at::Tensor rotation_from_angles(double yaw_deg, double pitch_deg, double roll_de
 
 SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& valid,
                                 const at::Tensor& pixels, double tolerance) {
-  if (!distance.defined() || distance.dim() != 2 || !valid.defined() || valid.sizes() != distance.sizes() ||
-      valid.scalar_type() != at::kBool) {
-    throw std::invalid_argument("sample_distance: expected a distance map (H, W) and a bool valid map (H, W)");
+  if (!distance.defined() || distance.dim() != 2 || !valid.defined() ||
+      valid.sizes() != distance.sizes() || valid.scalar_type() != at::kBool) {
+    throw std::invalid_argument(
+        "sample_distance: expected a distance map (H, W) and a bool valid map (H, W)");
   }
-  if (!pixels.defined() || pixels.size(-1) != 2) throw std::invalid_argument("sample_distance: pixels must be (..., 2)");
+  if (!pixels.defined() || pixels.size(-1) != 2)
+    throw std::invalid_argument("sample_distance: pixels must be (..., 2)");
   const int64_t height = distance.size(0), width = distance.size(1);
   const at::Tensor p = pixels.to(distance.scalar_type());
   const at::Tensor x = p.select(-1, 0), y = p.select(-1, 1);
   const at::Tensor inside = (x >= 0) & (x <= width) & (y >= 0) & (y <= height);
   const at::Tensor gx = (x - 0.5).clamp(0, width - 1), gy = (y - 0.5).clamp(0, height - 1);
-  const at::Tensor x0 = gx.floor().clamp(0, std::max<int64_t>(width - 2, 0)), y0 = gy.floor().clamp(0, std::max<int64_t>(height - 2, 0));
+  const at::Tensor x0 = gx.floor().clamp(0, std::max<int64_t>(width - 2, 0)),
+                   y0 = gy.floor().clamp(0, std::max<int64_t>(height - 2, 0));
   const at::Tensor fx = (gx - x0).clamp(0, 1), fy = (gy - y0).clamp(0, 1);
   const at::Tensor c0 = x0.to(at::kLong), r0 = y0.to(at::kLong);
   const at::Tensor c1 = (c0 + 1).clamp_max(width - 1), r1 = (r0 + 1).clamp_max(height - 1);
   const at::Tensor flat_d = distance.reshape(-1), flat_v = valid.reshape(-1);
   auto corner = [&](const at::Tensor& r, const at::Tensor& c) { return r * width + c; };
-  const at::Tensor idx = at::stack({corner(r0, c0), corner(r0, c1), corner(r1, c0), corner(r1, c1)}, -1);
+  const at::Tensor idx =
+      at::stack({corner(r0, c0), corner(r0, c1), corner(r1, c0), corner(r1, c1)}, -1);
   const at::Tensor d = flat_d.index({idx});
   const at::Tensor v = flat_v.index({idx});
   const at::Tensor w = at::stack({(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}, -1);
@@ -52,13 +56,16 @@ SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& va
 }
 
 at::Tensor sample_image(const at::Tensor& image, const at::Tensor& pixels) {
-  if (!image.defined() || image.dim() != 3) throw std::invalid_argument("sample_image: expected an image (H, W, C)");
+  if (!image.defined() || image.dim() != 3)
+    throw std::invalid_argument("sample_image: expected an image (H, W, C)");
   const int64_t height = image.size(0), width = image.size(1);
   const auto lead = pixels.sizes().slice(0, pixels.dim() - 1);
   const at::Tensor p = pixels.to(image.scalar_type()).reshape({1, 1, -1, 2});
-  const at::Tensor grid = at::stack({p.select(-1, 0) * (2.0 / width) - 1.0, p.select(-1, 1) * (2.0 / height) - 1.0}, -1);
+  const at::Tensor grid = at::stack(
+      {p.select(-1, 0) * (2.0 / width) - 1.0, p.select(-1, 1) * (2.0 / height) - 1.0}, -1);
   const at::Tensor input = image.permute({2, 0, 1}).unsqueeze(0);
-  const at::Tensor out = at::grid_sampler_2d(input, grid, /*bilinear*/ 0, /*border*/ 1, /*align_corners*/ false);
+  const at::Tensor out =
+      at::grid_sampler_2d(input, grid, /*bilinear*/ 0, /*border*/ 1, /*align_corners*/ false);
   std::vector<int64_t> shape(lead.begin(), lead.end());
   shape.push_back(image.size(2));
   return out.squeeze(0).squeeze(1).transpose(0, 1).reshape(shape);

@@ -21,8 +21,7 @@ Camera::Camera(const std::string& model, int64_t width, int64_t height, std::vec
   }
   if (!model_->accepts_param_count(params_.size())) {
     std::ostringstream text;
-    text << model_name_ << " expects " << model_->expected_params() << ", got "
-         << params_.size();
+    text << model_name_ << " expects " << model_->expected_params() << ", got " << params_.size();
     throw std::invalid_argument(text.str());
   }
   for (std::size_t i = 0; i < params_.size(); ++i) {
@@ -44,7 +43,8 @@ namespace {
 
 void require_floating(const at::Tensor& input, const char* what) {
   if (!at::isFloatingType(input.scalar_type())) {
-    throw std::invalid_argument(std::string(what) + " must be a floating-point tensor (float32 or float64), got " +
+    throw std::invalid_argument(std::string(what) +
+                                " must be a floating-point tensor (float32 or float64), got " +
                                 std::string(c10::toString(input.scalar_type())));
   }
 }
@@ -55,7 +55,8 @@ Rays Camera::unproject(const at::Tensor& pixels) const {
   require_floating(pixels, "Camera::unproject: pixels");
   if (pixels.dim() < 1 || pixels.size(-1) != 2) {
     throw std::invalid_argument("Camera::unproject: pixels must have shape (..., 2), got " +
-                                std::to_string(pixels.dim() ? pixels.size(-1) : 0) + " in the last dimension");
+                                std::to_string(pixels.dim() ? pixels.size(-1) : 0) +
+                                " in the last dimension");
   }
   return model_->unproject(params_tensor(pixels.options()), size(), pixels);
 }
@@ -64,7 +65,8 @@ Pixels Camera::project(const at::Tensor& points) const {
   require_floating(points, "Camera::project: points");
   if (points.dim() < 1 || points.size(-1) != 3) {
     throw std::invalid_argument("Camera::project: points must have shape (..., 3), got " +
-                                std::to_string(points.dim() ? points.size(-1) : 0) + " in the last dimension");
+                                std::to_string(points.dim() ? points.size(-1) : 0) +
+                                " in the last dimension");
   }
   return model_->project(params_tensor(points.options()), size(), points);
 }
@@ -72,7 +74,8 @@ Pixels Camera::project(const at::Tensor& points) const {
 at::Tensor Camera::inside_image(const at::Tensor& pixels) const {
   const auto x = pixels.select(-1, 0);
   const auto y = pixels.select(-1, 1);
-  return (x >= 0) & (x <= static_cast<double>(width_)) & (y >= 0) & (y <= static_cast<double>(height_));
+  return (x >= 0) & (x <= static_cast<double>(width_)) & (y >= 0) &
+         (y <= static_cast<double>(height_));
 }
 
 at::Tensor Camera::pixel_centres(at::TensorOptions options) const {
@@ -83,7 +86,9 @@ at::Tensor Camera::pixel_centres(at::TensorOptions options) const {
                    -1);
 }
 
-Rays Camera::ray_map(at::TensorOptions options) const { return unproject(pixel_centres(options)); }
+Rays Camera::ray_map(at::TensorOptions options) const {
+  return unproject(pixel_centres(options));
+}
 
 Camera Camera::resized(int64_t new_width, int64_t new_height) const {
   if (new_width <= 0 || new_height <= 0) {

@@ -35,9 +35,16 @@ double valid_fraction(const Camera& camera) {
 }
 
 CameraClass camera_class(const Camera& camera) {
-  static const std::set<std::string> wide{
-      "OPENCV_FISHEYE", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE",
-      "RAD_TAN_THIN_PRISM_FISHEYE", "FOV", "MEI", "UCM", "EUCM", "DOUBLE_SPHERE"};
+  static const std::set<std::string> wide{"OPENCV_FISHEYE",
+                                          "SIMPLE_RADIAL_FISHEYE",
+                                          "RADIAL_FISHEYE",
+                                          "THIN_PRISM_FISHEYE",
+                                          "RAD_TAN_THIN_PRISM_FISHEYE",
+                                          "FOV",
+                                          "MEI",
+                                          "UCM",
+                                          "EUCM",
+                                          "DOUBLE_SPHERE"};
   if (camera.model_name() == "EQUIRECTANGULAR") return CameraClass::kPanorama;
   return wide.count(camera.model_name()) ? CameraClass::kWide : CameraClass::kPerspective;
 }

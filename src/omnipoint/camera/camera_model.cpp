@@ -104,7 +104,9 @@ at::Tensor squared_length(const at::Tensor& v) {
   return sum;
 }
 
-at::Tensor length(const at::Tensor& v) { return at::sqrt(squared_length(v)); }
+at::Tensor length(const at::Tensor& v) {
+  return at::sqrt(squared_length(v));
+}
 
 at::Tensor all_finite(const at::Tensor& v) {
   auto finite = at::isfinite(v.select(-1, 0));

@@ -31,7 +31,9 @@ std::string trim(const std::string& text) {
 bool is_model_name(const std::string& token) {
   if (token.empty() || !std::isalpha(static_cast<unsigned char>(token[0]))) return false;
   for (const char c : token) {
-    if (!(std::isupper(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_')) return false;
+    if (!(std::isupper(static_cast<unsigned char>(c)) ||
+          std::isdigit(static_cast<unsigned char>(c)) || c == '_'))
+      return false;
   }
   return true;
 }
@@ -49,7 +51,8 @@ bool is_integer(const std::string& token) {
 
 int64_t parse_size(const std::string& token, const std::string& what, const std::string& model) {
   if (!is_integer(token)) {
-    throw std::invalid_argument(model + ": image " + what + " must be an integer, got '" + token + "'");
+    throw std::invalid_argument(model + ": image " + what + " must be an integer, got '" + token +
+                                "'");
   }
   return std::stoll(token);
 }
@@ -107,12 +110,14 @@ Camera camera_from_json(const std::string& text, const std::string& source) {
       "expected {\"model\": NAME, \"width\": W, \"height\": H, \"params\": [...]}";
   if (!json.is_object() || !json.contains("model") || !json["model"].is_string() ||
       !json.contains("width") || !json["width"].is_number_integer() || !json.contains("height") ||
-      !json["height"].is_number_integer() || !json.contains("params") || !json["params"].is_array()) {
+      !json["height"].is_number_integer() || !json.contains("params") ||
+      !json["params"].is_array()) {
     throw std::invalid_argument(source + ": " + expected);
   }
   std::vector<double> params;
   for (const auto& value : json["params"]) {
-    if (!value.is_number()) throw std::invalid_argument(source + ": params must be numbers; " + expected);
+    if (!value.is_number())
+      throw std::invalid_argument(source + ": params must be numbers; " + expected);
     params.push_back(value.get<double>());
   }
   return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
@@ -121,7 +126,8 @@ Camera camera_from_json(const std::string& text, const std::string& source) {
 
 // A cameras.txt file: '#' comments, then "ID MODEL W H PARAMS..." lines (or one "MODEL W H
 // PARAMS..." line). `id` empty -> the first camera.
-Camera camera_from_text_file(const std::string& text, const std::string& path, const std::string& id) {
+Camera camera_from_text_file(const std::string& text, const std::string& path,
+                             const std::string& id) {
   std::istringstream in(text);
   std::vector<std::string> ids;
   for (std::string line; std::getline(in, line);) {
@@ -130,7 +136,9 @@ Camera camera_from_text_file(const std::string& text, const std::string& path, c
     const auto tokens = split_whitespace(line);
     std::size_t model_index = 0;
     if (!looks_like_line(tokens, &model_index)) {
-      throw std::invalid_argument(path + ": not a camera line (expected 'ID MODEL WIDTH HEIGHT PARAMS...'): '" + line + "'");
+      throw std::invalid_argument(
+          path + ": not a camera line (expected 'ID MODEL WIDTH HEIGHT PARAMS...'): '" + line +
+          "'");
     }
     const std::string line_id = model_index == 1 ? tokens[0] : "";
     if (id.empty() || line_id == id) return camera_from_tokens(tokens, model_index);
@@ -145,7 +153,9 @@ Camera camera_from_text_file(const std::string& text, const std::string& path, c
 Camera camera_from_file(const std::string& path, const std::string& id) {
   const std::string text = io::read_file(path);
   if (trim(text).rfind('{', 0) == 0) {
-    if (!id.empty()) throw std::invalid_argument(path + ": a JSON camera file holds one camera; drop '#" + id + "'");
+    if (!id.empty())
+      throw std::invalid_argument(path + ": a JSON camera file holds one camera; drop '#" + id +
+                                  "'");
     return camera_from_json(text, path);
   }
   return camera_from_text_file(text, path, id);
@@ -164,24 +174,29 @@ std::string format_double(double value) {
 Camera parse_camera(const std::string& spec) {
   const std::string text = trim(spec);
   if (text.empty()) {
-    throw std::invalid_argument("empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...', a JSON object or a file");
+    throw std::invalid_argument(
+        "empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...', a JSON object or a file");
   }
   if (text[0] == '{') return camera_from_json(text, "camera spec");
   const auto tokens = split_whitespace(text);
   std::size_t model_index = 0;
-  if (tokens.size() > 1 && looks_like_line(tokens, &model_index)) return camera_from_tokens(tokens, model_index);
+  if (tokens.size() > 1 && looks_like_line(tokens, &model_index))
+    return camera_from_tokens(tokens, model_index);
 
   namespace fs = std::filesystem;
   if (fs::is_regular_file(text)) return camera_from_file(text, "");
   const auto separator = text.find_last_of("#:");
   if (separator != std::string::npos && fs::is_regular_file(text.substr(0, separator))) {
     const std::string id = text.substr(separator + 1);
-    if (!is_integer(id)) throw std::invalid_argument("camera spec '" + text + "': camera id must be an integer, got '" + id + "'");
+    if (!is_integer(id))
+      throw std::invalid_argument("camera spec '" + text +
+                                  "': camera id must be an integer, got '" + id + "'");
     return camera_from_file(text.substr(0, separator), id);
   }
   if (tokens.size() == 1 && is_model_name(tokens[0])) return camera_from_tokens(tokens, 0);
   throw std::runtime_error("camera spec '" + text +
-                           "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON object, or an existing file");
+                           "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON "
+                           "object, or an existing file");
 }
 
 std::string Camera::to_spec() const {
@@ -191,7 +206,8 @@ std::string Camera::to_spec() const {
 }
 
 std::string Camera::to_json() const {
-  nlohmann::json json = {{"model", model_name_}, {"width", width_}, {"height", height_}, {"params", params_}};
+  nlohmann::json json = {
+      {"model", model_name_}, {"width", width_}, {"height", height_}, {"params", params_}};
   return json.dump();
 }
 

@@ -27,9 +27,10 @@ double DistortedPinholeModel::monotonic_radius(const at::Tensor& params) const {
 Pixels DistortedPinholeModel::project(const at::Tensor& params, ImageSize,
                                       const at::Tensor& points) const {
   const auto plane = project_to_plane(points);
-  const auto pixels = denormalise_pixels(focal_principal(*this, params), distort(params, plane.normalised));
-  const auto valid = plane.valid & (length(plane.normalised) < monotonic_radius(params)) &
-                     all_finite(pixels);
+  const auto pixels =
+      denormalise_pixels(focal_principal(*this, params), distort(params, plane.normalised));
+  const auto valid =
+      plane.valid & (length(plane.normalised) < monotonic_radius(params)) & all_finite(pixels);
   return {at::where(valid.unsqueeze(-1), pixels, at::zeros_like(pixels)), valid};
 }
 
@@ -41,12 +42,14 @@ Rays DistortedPinholeModel::unproject(const at::Tensor& params, ImageSize,
   // Start from one fixed-point step u = d - (g(d) - d), which removes the first-order
   // distortion; where that is worse than d itself (strong distortion), start from d.
   const auto stepped = 2 * distorted - g(distorted);
-  const auto closer = squared_length(g(stepped) - distorted) < squared_length(g(distorted) - distorted);
+  const auto closer =
+      squared_length(g(stepped) - distorted) < squared_length(g(distorted) - distorted);
   const auto initial = at::where(closer.unsqueeze(-1), stepped, distorted);
   const auto solved = solve_2d(g, distorted, initial, monotonic_radius(params));
   const auto rays = rays_from_plane(solved.solution);
   const auto valid = solved.converged;
-  return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)).to(pixels.scalar_type()), valid};
+  return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)).to(pixels.scalar_type()),
+          valid};
 }
 
 }  // namespace omnipoint::camera

@@ -95,8 +95,7 @@ at::Tensor solve_theta(const at::Tensor& theta_d, const std::vector<at::Tensor>&
     const auto b = at::where(above, t, high.index_select(0, active));
     const auto newton = t - residual / radial_slope(t2, k);
     const auto inside = (newton > a) & (newton < b);
-    const auto next =
-        at::where(residual == 0, t, at::where(inside, newton, 0.5 * (a + b)));
+    const auto next = at::where(residual == 0, t, at::where(inside, newton, 0.5 * (a + b)));
     theta.index_copy_(0, active, next);
     low.index_copy_(0, active, a);
     high.index_copy_(0, active, b);

@@ -51,7 +51,8 @@ class EquirectangularModel final : public CameraModel {
     if (!(b.lon_min < b.lon_max && b.lon_max - b.lon_min <= 2 * M_PI + 1e-9)) {
       text << "EQUIRECTANGULAR: expects lon_min < lon_max <= lon_min + 2 pi, got " << b.lon_min
            << " " << b.lon_max;
-    } else if (!(-M_PI / 2 - 1e-9 <= b.lat_min && b.lat_min < b.lat_max && b.lat_max <= M_PI / 2 + 1e-9)) {
+    } else if (!(-M_PI / 2 - 1e-9 <= b.lat_min && b.lat_min < b.lat_max &&
+                 b.lat_max <= M_PI / 2 + 1e-9)) {
       text << "EQUIRECTANGULAR: expects -pi/2 <= lat_min < lat_max <= pi/2, got " << b.lat_min
            << " " << b.lat_max;
     } else {
@@ -60,7 +61,8 @@ class EquirectangularModel final : public CameraModel {
     throw std::invalid_argument(text.str());
   }
 
-  Pixels project(const at::Tensor& params, ImageSize size, const at::Tensor& points) const override {
+  Pixels project(const at::Tensor& params, ImageSize size,
+                 const at::Tensor& points) const override {
     const Bounds b = bounds_of(params);
     const auto x = points.select(-1, 0);
     const auto y = points.select(-1, 1);
@@ -77,20 +79,24 @@ class EquirectangularModel final : public CameraModel {
     return {at::where(valid.unsqueeze(-1), pixels, at::zeros_like(pixels)), valid};
   }
 
-  Rays unproject(const at::Tensor& params, ImageSize size, const at::Tensor& pixels) const override {
+  Rays unproject(const at::Tensor& params, ImageSize size,
+                 const at::Tensor& pixels) const override {
     const Bounds b = bounds_of(params);
     const auto lon = b.lon_min + pixels.select(-1, 0) * ((b.lon_max - b.lon_min) / size.width);
-    const auto unclamped_lat = b.lat_max - pixels.select(-1, 1) * ((b.lat_max - b.lat_min) / size.height);
+    const auto unclamped_lat =
+        b.lat_max - pixels.select(-1, 1) * ((b.lat_max - b.lat_min) / size.height);
     // The poles themselves are valid despite rounding (float32 pi/2 exceeds pi/2).
     const auto valid = unclamped_lat.abs() <= M_PI / 2 * (1 + 1e-6);
     const auto lat = unclamped_lat.clamp(-M_PI / 2, M_PI / 2);
     const auto cos_lat = at::cos(lat);
-    const auto rays = at::stack({cos_lat * at::sin(lon), -at::sin(lat), cos_lat * at::cos(lon)}, -1);
+    const auto rays =
+        at::stack({cos_lat * at::sin(lon), -at::sin(lat), cos_lat * at::cos(lon)}, -1);
     return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)), valid};
   }
 
   // The angular extent per pixel does not change with the image size.
-  std::vector<double> scaled_params(const std::vector<double>& params, double, double) const override {
+  std::vector<double> scaled_params(const std::vector<double>& params, double,
+                                    double) const override {
     return params;
   }
 

@@ -16,7 +16,8 @@ struct Samples {
 Samples sample_valid_pixels(const at::Tensor& rays, const at::Tensor& valid, int64_t width,
                             int64_t max_samples) {
   const auto flat = rays.to(at::kCPU, at::kDouble).reshape({-1, 3});
-  const auto usable = valid.to(at::kCPU).to(at::kBool).reshape({-1}) & all_finite(flat) & (length(flat) > 0);
+  const auto usable =
+      valid.to(at::kCPU).to(at::kBool).reshape({-1}) & all_finite(flat) & (length(flat) > 0);
   auto index = usable.nonzero().squeeze(1);
   const int64_t stride = std::max<int64_t>(1, (index.numel() + max_samples - 1) / max_samples);
   index = index.slice(0, 0, index.numel(), stride);
@@ -31,7 +32,8 @@ Samples sample_valid_pixels(const at::Tensor& rays, const at::Tensor& valid, int
 std::pair<double, double> fit_line(const at::Tensor& a, const at::Tensor& value) {
   const auto a_centred = a - a.mean();
   const double variance = (a_centred * a_centred).sum().item<double>();
-  const double slope = variance > 0 ? (a_centred * (value - value.mean())).sum().item<double>() / variance : 0;
+  const double slope =
+      variance > 0 ? (a_centred * (value - value.mean())).sum().item<double>() / variance : 0;
   return {slope, (value - slope * a).mean().item<double>()};
 }
 
@@ -41,7 +43,8 @@ std::vector<double> pinhole_guess(const Samples& samples, ImageSize size) {
   const auto z = samples.rays.select(-1, 2);
   const auto front = (z > 1e-6).nonzero().squeeze(1);
   const double fallback_focal = 0.5 * size.width;  // a 90 degree lens
-  if (front.numel() < 8) return {fallback_focal, fallback_focal, 0.5 * size.width, 0.5 * size.height};
+  if (front.numel() < 8)
+    return {fallback_focal, fallback_focal, 0.5 * size.width, 0.5 * size.height};
   const auto zf = z.index_select(0, front);
   const int64_t quarter = std::max<int64_t>(8, front.numel() / 4);
   const auto nearest = std::get<1>(at::topk(zf, quarter));  // largest z: smallest angles
@@ -52,7 +55,8 @@ std::vector<double> pinhole_guess(const Samples& samples, ImageSize size) {
   const auto b = rays.select(-1, 1) / rays.select(-1, 2);
   auto [fx, cx] = fit_line(a, pixels.select(-1, 0));
   auto [fy, cy] = fit_line(b, pixels.select(-1, 1));
-  if (!(fx > 0) || !(fy > 0)) return {fallback_focal, fallback_focal, 0.5 * size.width, 0.5 * size.height};
+  if (!(fx > 0) || !(fy > 0))
+    return {fallback_focal, fallback_focal, 0.5 * size.width, 0.5 * size.height};
   return {fx, fy, cx, cy};
 }
 
@@ -76,8 +80,8 @@ Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
   if (rays.dim() != 3 || rays.size(0) != height || rays.size(1) != width || rays.size(2) != 3 ||
       valid.sizes() != rays.sizes().slice(0, 2)) {
     throw std::invalid_argument("fit_camera: expects rays (" + std::to_string(height) + ", " +
-                                std::to_string(width) + ", 3) and valid (" + std::to_string(height) +
-                                ", " + std::to_string(width) + ")");
+                                std::to_string(width) + ", 3) and valid (" +
+                                std::to_string(height) + ", " + std::to_string(width) + ")");
   }
   const ImageSize size{width, height};
   const auto samples = sample_valid_pixels(rays, valid, width, max_samples);
@@ -93,7 +97,8 @@ Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
   const auto residual = [&](const std::vector<double>& p) {
     const auto projected = model.project(at::tensor(p, at::kDouble), size, samples.rays);
     const auto difference = projected.pixels - samples.pixels;
-    return at::where(projected.valid.unsqueeze(-1), difference, at::full_like(difference, penalty)).reshape({-1});
+    return at::where(projected.valid.unsqueeze(-1), difference, at::full_like(difference, penalty))
+        .reshape({-1});
   };
 
   const int64_t count = static_cast<int64_t>(params.size());
@@ -136,7 +141,8 @@ Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
   try {
     return Camera(model_name, width, height, params);
   } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("fit_camera: fitting " + model_name + " to the ray map failed: " + e.what());
+    throw std::invalid_argument("fit_camera: fitting " + model_name +
+                                " to the ray map failed: " + e.what());
   }
 }
 

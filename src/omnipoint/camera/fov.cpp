@@ -19,7 +19,9 @@ constexpr double kSmallRadius = 1e-12;
 class FovModel final : public CameraModel {
  public:
   std::string name() const override { return "FOV"; }
-  std::vector<std::string> param_names() const override { return {"fx", "fy", "cx", "cy", "omega"}; }
+  std::vector<std::string> param_names() const override {
+    return {"fx", "fy", "cx", "cy", "omega"};
+  }
 
   void check_params(const std::vector<double>& params, ImageSize) const override {
     check_focal_positive(*this, params);
@@ -40,7 +42,8 @@ class FovModel final : public CameraModel {
       const auto r = length(plane.normalised).unsqueeze(-1);
       const auto small = r < kSmallRadius;
       const auto safe_r = at::where(small, at::ones_like(r), r);
-      const auto factor = at::where(small, at::full_like(r, two_tan / omega), at::atan(two_tan * safe_r) / (omega * safe_r));
+      const auto factor = at::where(small, at::full_like(r, two_tan / omega),
+                                    at::atan(two_tan * safe_r) / (omega * safe_r));
       distorted = plane.normalised * factor;
     }
     const auto pixels = denormalise_pixels(focal_principal(*this, params), distorted);
@@ -51,14 +54,16 @@ class FovModel final : public CameraModel {
     const auto distorted = normalise_pixels(focal_principal(*this, params), pixels);
     const double omega = params[4].item<double>();
     if (omega == 0) {
-      return {rays_from_plane(distorted), at::ones_like(pixels.select(-1, 0), pixels.options().dtype(at::kBool))};
+      return {rays_from_plane(distorted),
+              at::ones_like(pixels.select(-1, 0), pixels.options().dtype(at::kBool))};
     }
     const double two_tan = 2 * std::tan(omega / 2);
     const auto rd = length(distorted).unsqueeze(-1);
     const auto valid = (rd * omega < M_PI / 2).squeeze(-1);
     const auto small = rd < kSmallRadius;
     const auto safe_rd = at::where(small | ~valid.unsqueeze(-1), at::full_like(rd, 0.5), rd);
-    const auto factor = at::where(small, at::full_like(rd, omega / two_tan), at::tan(safe_rd * omega) / (two_tan * safe_rd));
+    const auto factor = at::where(small, at::full_like(rd, omega / two_tan),
+                                  at::tan(safe_rd * omega) / (two_tan * safe_rd));
     const auto rays = rays_from_plane(distorted * factor);
     return {at::where(valid.unsqueeze(-1), rays, at::zeros_like(rays)), valid};
   }

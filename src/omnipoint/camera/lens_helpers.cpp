@@ -28,14 +28,12 @@ double fold_slack(at::ScalarType dtype) {
                                      : std::numeric_limits<float>::epsilon());
 }
 
-at::Tensor tangential_distortion(const at::Tensor& xy, const at::Tensor& p1,
-                                 const at::Tensor& p2) {
+at::Tensor tangential_distortion(const at::Tensor& xy, const at::Tensor& p1, const at::Tensor& p2) {
   const auto x = xy.select(-1, 0);
   const auto y = xy.select(-1, 1);
   const auto r2 = x * x + y * y;
-  return at::stack({2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-                    p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y},
-                   -1);
+  return at::stack(
+      {2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x), p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y}, -1);
 }
 
 at::Tensor locally_invertible(const Map2D& g, const at::Tensor& u) {

@@ -68,7 +68,8 @@ class MeiModel final : public CameraModel {
   Rays unproject(const at::Tensor& params, ImageSize, const at::Tensor& pixels) const override {
     const auto host = host_values(params);
     const auto params64 = params.detach().to(at::kDouble);
-    auto plane = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
+    auto plane =
+        normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
     auto valid = all_finite(plane);
     plane = at::where(valid.unsqueeze(-1), plane, at::zeros_like(plane));
     if (distorted(host)) {
@@ -83,7 +84,8 @@ class MeiModel final : public CameraModel {
       // Preimages lie inside the distortion's rising range and, for ξ > 1, inside the image
       // of the sphere's fold, r² <= 1 / (ξ² − 1): the solve gives up on leaving that disc.
       const double xi = host[4];
-      const double sphere_r2 = xi > 1 ? 1.0 / (xi * xi - 1.0) : std::numeric_limits<double>::infinity();
+      const double sphere_r2 =
+          xi > 1 ? 1.0 / (xi * xi - 1.0) : std::numeric_limits<double>::infinity();
       const double max_radius = std::sqrt(std::min(radial_fold_r2(host[5], host[6]), sphere_r2) *
                                           (1.0 + fold_slack(pixels.scalar_type())));
       const auto solved = solve_2d(g, plane, start, max_radius);

@@ -16,9 +16,9 @@ at::Tensor radial_tangential(const at::Tensor& u, const at::Tensor& radial, cons
   const auto xy = x * y;
   const auto r2 = x * x + y * y;
   const auto r = radial.squeeze(-1);
-  return at::stack({x * r + 2 * p1 * xy + p2 * (r2 + 2 * x * x),
-                    y * r + 2 * p2 * xy + p1 * (r2 + 2 * y * y)},
-                   -1);
+  return at::stack(
+      {x * r + 2 * p1 * xy + p2 * (r2 + 2 * x * x), y * r + 2 * p2 * xy + p1 * (r2 + 2 * y * y)},
+      -1);
 }
 
 class OpenCVModel final : public DistortedPinholeModel {

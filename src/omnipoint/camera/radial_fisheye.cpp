@@ -44,8 +44,7 @@ const CameraModel& simple_radial_fisheye_model() {
 }
 
 const CameraModel& radial_fisheye_model() {
-  static const RadialFisheyeModel model("RADIAL_FISHEYE", {"f", "cx", "cy", "k1", "k2"},
-                                        {3, 4});
+  static const RadialFisheyeModel model("RADIAL_FISHEYE", {"f", "cx", "cy", "k1", "k2"}, {3, 4});
   return model;
 }
 

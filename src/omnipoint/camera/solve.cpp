@@ -26,7 +26,9 @@ constexpr double kStalledDamping = 1e4;
 at::Tensor jacobian_2d(const Map2D& g, const at::Tensor& u, const at::Tensor& value) {
   // Step ~ sqrt(eps) relative to the point, the optimum for forward differences.
   const double relative = u.scalar_type() == at::kDouble ? 1.5e-8 : 3.5e-4;
-  const auto h = at::maximum(u.select(-1, 0).abs(), u.select(-1, 1).abs()).clamp_min(1.0).unsqueeze(-1) * relative;  // (..., 1)
+  const auto h =
+      at::maximum(u.select(-1, 0).abs(), u.select(-1, 1).abs()).clamp_min(1.0).unsqueeze(-1) *
+      relative;  // (..., 1)
   const auto zero = at::zeros_like(h);
   const auto shifted = g(at::stack({u + at::cat({h, zero}, -1), u + at::cat({zero, h}, -1)}, 0));
   return at::stack({(shifted[0] - value) / h, (shifted[1] - value) / h}, -1);
@@ -92,12 +94,13 @@ Solve2DResult solve_2d(const Map2D& g, const at::Tensor& target, const at::Tenso
 double monotonic_radius(const Map2D& g) {
   constexpr int kDirections = 16;
   const double min_radius = 1e-3, max_radius = 1e3, ratio = 1.01;
-  const int count = static_cast<int>(std::ceil(std::log(max_radius / min_radius) / std::log(ratio))) + 1;
+  const int count =
+      static_cast<int>(std::ceil(std::log(max_radius / min_radius) / std::log(ratio))) + 1;
   const auto options = at::TensorOptions().dtype(at::kDouble);
   const auto radii = min_radius * at::pow(ratio, at::arange(count, options));  // (R)
   const auto angles = at::arange(kDirections, options) * (2 * M_PI / kDirections);
   const auto directions = at::stack({at::cos(angles), at::sin(angles)}, -1);  // (D, 2)
-  const auto u = radii.view({-1, 1, 1}) * directions.unsqueeze(0);             // (R, D, 2)
+  const auto u = radii.view({-1, 1, 1}) * directions.unsqueeze(0);            // (R, D, 2)
   const auto j = jacobian_2d(g, u, g(u));
   const auto j00 = j.select(-1, 0).select(-1, 0);
   const auto j11 = j.select(-1, 1).select(-1, 1);

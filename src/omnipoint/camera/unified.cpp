@@ -44,8 +44,8 @@ Rays lift_to_shifted_sphere(const at::Tensor& m, const at::Tensor& xi, double sl
 namespace {
 
 // Pixels from normalised coordinates (x, y) / den where `valid`, zero elsewhere.
-Pixels pixels_from_plane(const CameraModel& model, const at::Tensor& params,
-                         const at::Tensor& xy, const at::Tensor& den, const at::Tensor& valid) {
+Pixels pixels_from_plane(const CameraModel& model, const at::Tensor& params, const at::Tensor& xy,
+                         const at::Tensor& den, const at::Tensor& valid) {
   const auto safe_den = at::where(valid, den, at::ones_like(den)).unsqueeze(-1);
   const auto pixels = denormalise_pixels(focal_principal(model, params), xy / safe_den);
   return {at::where(valid.unsqueeze(-1), pixels, at::zeros_like(pixels)), valid};
@@ -86,9 +86,9 @@ class EnhancedUnifiedModel final : public CameraModel {
     const auto d = at::sqrt(beta(params) * squared_length(xy) + z * z);
     const auto den = alpha * d + (1.0 - alpha) * z;
     const auto norm = length(points);
-    const auto valid = all_finite(points) & (norm > 0) & (den > 0) &
-                       (z + unified_domain_weight(alpha_value) * d >=
-                        -fold_slack(points.scalar_type()) * norm);
+    const auto valid =
+        all_finite(points) & (norm > 0) & (den > 0) &
+        (z + unified_domain_weight(alpha_value) * d >= -fold_slack(points.scalar_type()) * norm);
     return pixels_from_plane(*this, params, xy, den, valid);
   }
 
@@ -99,7 +99,7 @@ class EnhancedUnifiedModel final : public CameraModel {
     const auto finite = all_finite(m);
     m = at::where(finite.unsqueeze(-1), m, at::zeros_like(m));
     const auto depth = eucm_plane_depth(squared_length(m), alpha, beta(params64),
-                                         fold_slack(pixels.scalar_type()));
+                                        fold_slack(pixels.scalar_type()));
     auto rays = at::cat({m, depth.mz.unsqueeze(-1)}, -1);
     rays = rays / length(rays).unsqueeze(-1);
     const auto valid = finite & depth.valid & all_finite(rays);
@@ -167,8 +167,7 @@ class DoubleSphereModel final : public CameraModel {
     const auto depth = eucm_plane_depth(squared_length(m), alpha, at::ones({}, m.options()), slack);
     const auto lifted =
         lift_to_shifted_sphere(at::cat({m, depth.mz.unsqueeze(-1)}, -1), params64[4], slack);
-    const auto valid =
-        finite & depth.valid & lifted.valid & all_finite(lifted.rays);
+    const auto valid = finite & depth.valid & lifted.valid & all_finite(lifted.rays);
     return {at::where(valid.unsqueeze(-1), lifted.rays, at::zeros_like(lifted.rays))
                 .to(pixels.scalar_type()),
             valid};

@@ -25,7 +25,8 @@ std::string relative_id(const fs::path& folder, const fs::path& root) {
   return id.empty() || id == "." ? folder.filename().string() : id;
 }
 
-void collect(const fs::path& folder, const fs::path& root, int depth, std::vector<DatasetItem>& out) {
+void collect(const fs::path& folder, const fs::path& root, int depth,
+             std::vector<DatasetItem>& out) {
   if (is_folder_sample(folder)) {
     out.push_back({folder.string(), relative_id(folder, root), SampleFormat::kFolder});
     return;

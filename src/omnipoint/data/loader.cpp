@@ -37,10 +37,12 @@ IndexedSource index_source(const DataSource& s) {
   if (!(s.weight > 0) || !std::isfinite(s.weight))
     throw std::invalid_argument("data source '" + s.path + "': weight must be positive");
   if (s.kind == "synth") {
-    if (s.cameras.empty()) throw std::invalid_argument("synth data source: needs at least one camera spec");
+    if (s.cameras.empty())
+      throw std::invalid_argument("synth data source: needs at least one camera spec");
     for (const auto& spec : s.cameras) out.cameras.push_back(camera::parse_camera(spec));
     for (const auto& name : s.scenes) out.scenes.push_back(synth::parse_scene_kind(name));
-    if (out.scenes.empty()) throw std::invalid_argument("synth data source: needs at least one scene kind");
+    if (out.scenes.empty())
+      throw std::invalid_argument("synth data source: needs at least one scene kind");
     return out;
   }
   if (s.kind == "folder") {
@@ -49,16 +51,19 @@ IndexedSource index_source(const DataSource& s) {
       out.items.push_back(root.string());
     } else if (fs::is_directory(root)) {
       for (const auto& e : fs::directory_iterator(root))
-        if (e.is_directory() && fs::exists(e.path() / "meta.json")) out.items.push_back(e.path().string());
+        if (e.is_directory() && fs::exists(e.path() / "meta.json"))
+          out.items.push_back(e.path().string());
       std::sort(out.items.begin(), out.items.end());
     }
   } else if (s.kind == "moge") {
     out.items = list_moge_instances(s.path);
   } else {
-    throw std::invalid_argument("data source kind '" + s.kind + "': expected folder, moge or synth");
+    throw std::invalid_argument("data source kind '" + s.kind +
+                                "': expected folder, moge or synth");
   }
   if (out.items.empty())
-    throw std::runtime_error("data source " + s.path + ": no samples (expected sample folders with meta.json)");
+    throw std::runtime_error("data source " + s.path +
+                             ": no samples (expected sample folders with meta.json)");
   return out;
 }
 
@@ -82,16 +87,19 @@ std::runtime_error no_usable_samples(const IndexedSource& src) {
 }
 
 std::string replace_all(std::string text, const std::string& what, const std::string& with) {
-  for (auto at = text.find(what); !what.empty() && at != std::string::npos; at = text.find(what, at + with.size()))
+  for (auto at = text.find(what); !what.empty() && at != std::string::npos;
+       at = text.find(what, at + with.size()))
     text.replace(at, what.size(), with);
   return text;
 }
 
 }  // namespace
 
-std::pair<int64_t, int64_t> batch_image_size(int64_t num_tokens, int64_t patch_size, double aspect) {
+std::pair<int64_t, int64_t> batch_image_size(int64_t num_tokens, int64_t patch_size,
+                                             double aspect) {
   if (num_tokens < 1 || patch_size < 1 || !(aspect > 0))
-    throw std::invalid_argument("batch_image_size: num_tokens, patch_size and aspect must be positive");
+    throw std::invalid_argument(
+        "batch_image_size: num_tokens, patch_size and aspect must be positive");
   const auto cols = std::max<int64_t>(1, std::llround(std::sqrt(num_tokens * aspect)));
   const auto rows = std::max<int64_t>(1, std::llround(std::sqrt(num_tokens / aspect)));
   return {cols * patch_size, rows * patch_size};
@@ -116,14 +124,16 @@ struct Loader::State {
     for (;;) {
       double pick = rng.uniform(0, total_weight);
       size_t s = 0;
-      while (s + 1 < sources.size() && pick >= sources[s].source.weight) pick -= sources[s++].source.weight;
+      while (s + 1 < sources.size() && pick >= sources[s].source.weight)
+        pick -= sources[s++].source.weight;
       const auto& src = sources[s];
       if (src.source.kind == "synth") {
         const auto seed = rng.next_u64() >> 33;
         const auto kind = src.scenes[rng.integer(0, static_cast<int>(src.scenes.size()) - 1)];
         const auto& cam = src.cameras[rng.integer(0, static_cast<int>(src.cameras.size()) - 1)];
         const auto f = fit_to(cam.width(), cam.height(), width, height, rng);
-        const auto fitted = cam.resized(f.resized_w, f.resized_h).cropped(f.x0, f.y0, width, height);
+        const auto fitted =
+            cam.resized(f.resized_w, f.resized_h).cropped(f.x0, f.y0, width, height);
         from = "synth:" + synth::scene_kind_name(kind) + ":" + std::to_string(seed);
         return synth::synthesize(kind, seed, fitted).sample;
       }
@@ -140,7 +150,8 @@ struct Loader::State {
       // it consume the same draws: the stream does not depend on worker timing.
       std::optional<Sample> sample;
       try {
-        sample = src.source.kind == "moge" ? read_moge_instance(item, src.source.metric) : read_sample(item);
+        sample = src.source.kind == "moge" ? read_moge_instance(item, src.source.metric)
+                                           : read_sample(item);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex);
         std::cerr << "omnipoint: skipping sample " << item << ": " << e.what() << "\n";
@@ -166,7 +177,8 @@ struct Loader::State {
   Batch build(int64_t k) {
     const auto& o = options;
     synth::Random batch_rng(o.seed, static_cast<std::uint64_t>(k) << 1);
-    const double aspect = std::exp(batch_rng.uniform(std::log(o.min_aspect), std::log(o.max_aspect)));
+    const double aspect =
+        std::exp(batch_rng.uniform(std::log(o.min_aspect), std::log(o.max_aspect)));
     const auto [width, height] = batch_image_size(o.num_tokens, o.patch_size, aspect);
     std::vector<at::Tensor> images, rays, distances, masks;
     Batch batch;
@@ -175,7 +187,8 @@ struct Loader::State {
       synth::Random rng(o.seed, (static_cast<std::uint64_t>(k * o.batch_size + j) << 1) | 1);
       std::string from;
       Sample s = draw(width, height, rng, from);
-      auto image = o.augment ? photometric_augment(s.image, o.photometric, rng.next_u64()) : s.image;
+      auto image =
+          o.augment ? photometric_augment(s.image, o.photometric, rng.next_u64()) : s.image;
       images.push_back(image.permute({2, 0, 1}));
       rays.push_back(s.camera.ray_map(at::kFloat).rays);
       distances.push_back(s.distance);
@@ -198,7 +211,8 @@ struct Loader::State {
       int64_t k;
       {
         std::unique_lock<std::mutex> lock(mutex);
-        space.wait(lock, [&] { return stopping || next_to_build < next_to_deliver + options.prefetch; });
+        space.wait(lock,
+                   [&] { return stopping || next_to_build < next_to_deliver + options.prefetch; });
         if (stopping) return;
         k = next_to_build++;
       }

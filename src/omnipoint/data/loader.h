@@ -26,10 +26,10 @@
 namespace omnipoint::data {
 
 struct DataSource {
-  std::string kind;                 // "folder" | "moge" | "synth"
-  std::string path;                 // folder / moge root
-  double weight = 1.0;              // relative sampling weight
-  bool metric = true;               // moge only (folders say it in meta.json; synth is metric)
+  std::string kind;     // "folder" | "moge" | "synth"
+  std::string path;     // folder / moge root
+  double weight = 1.0;  // relative sampling weight
+  bool metric = true;   // moge only (folders say it in meta.json; synth is metric)
   std::vector<std::string> scenes{"indoor", "outdoor", "object"};  // synth
   std::vector<std::string> cameras;  // synth: camera specs, drawn uniformly
 };
@@ -37,13 +37,13 @@ struct DataSource {
 struct LoaderOptions {
   std::vector<DataSource> sources;
   int64_t batch_size = 4;
-  int64_t num_tokens = 600;         // image area ~ num_tokens * patch_size^2
-  int64_t patch_size = 14;          // height and width are multiples of it
+  int64_t num_tokens = 600;                   // image area ~ num_tokens * patch_size^2
+  int64_t patch_size = 14;                    // height and width are multiples of it
   double min_aspect = 0.5, max_aspect = 2.0;  // width / height, log-uniform per batch
   bool augment = true;
   PhotometricOptions photometric;
   int workers = 2;
-  int prefetch = 4;                 // batches prepared ahead
+  int prefetch = 4;  // batches prepared ahead
   std::uint64_t seed = 0;
 };
 

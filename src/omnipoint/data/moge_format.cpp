@@ -36,13 +36,17 @@ MogeDepthCode encode_moge_depth(const at::Tensor& depth_in, double max_range) {
   const auto finite = at::isfinite(depth);
   if (!finite.any().item<bool>())
     throw std::invalid_argument("encode_moge_depth: no finite depth value to encode");
-  if ((depth.masked_select(finite) <= 0).any().item<bool>() || (depth == -INFINITY).any().item<bool>())
-    throw std::invalid_argument("encode_moge_depth: depth values must be positive (NaN unknown, +inf infinity)");
+  if ((depth.masked_select(finite) <= 0).any().item<bool>() ||
+      (depth == -INFINITY).any().item<bool>())
+    throw std::invalid_argument(
+        "encode_moge_depth: depth values must be positive (NaN unknown, +inf infinity)");
   const auto values = depth.masked_select(finite);
   MogeDepthCode code;
   code.near = std::max(values.min().item<double>(), 1e-5);
-  code.far = std::max(code.near * 1.1, std::min(values.max().item<double>(), code.near * max_range));
-  const auto clipped = at::where(finite, depth, at::full_like(depth, code.near)).clamp(code.near, code.far);
+  code.far =
+      std::max(code.near * 1.1, std::min(values.max().item<double>(), code.near * max_range));
+  const auto clipped =
+      at::where(finite, depth, at::full_like(depth, code.near)).clamp(code.near, code.far);
   const auto t = (at::log(clipped / code.near) / std::log(code.far / code.near)).clamp(0, 1);
   auto v = (1 + at::round(t * kSteps)).to(at::kInt);
   v = at::where(at::isnan(depth), at::zeros_like(v), v);
@@ -63,7 +67,8 @@ at::Tensor decode_moge_depth(const MogeDepthCode& code) {
 void write_moge_depth(const std::string& path, const at::Tensor& depth) {
   const auto code = encode_moge_depth(depth);
   io::write_image_png(path, code.values);
-  const auto png = add_png_text(io::read_file(path), {{"near", shortest(code.near)}, {"far", shortest(code.far)}});
+  const auto png = add_png_text(io::read_file(path),
+                                {{"near", shortest(code.near)}, {"far", shortest(code.far)}});
   io::write_file_atomically(path, [&](std::ostream& out) { out.write(png.data(), png.size()); });
 }
 
@@ -83,7 +88,8 @@ at::Tensor read_moge_depth(const std::string& path) {
   code.near = number("near");
   code.far = number("far");
   if (!(code.near > 0) || !(code.far > code.near) || !std::isfinite(code.far))
-    throw std::runtime_error(path + ": expected 0 < near < far, got " + shortest(code.near) + ", " + shortest(code.far));
+    throw std::runtime_error(path + ": expected 0 < near < far, got " + shortest(code.near) + ", " +
+                             shortest(code.far));
   auto values = io::read_image_values(path);
   if (values.dim() != 2) throw std::runtime_error(path + ": expected a single-channel 16-bit PNG");
   code.values = values.to(at::kInt);
@@ -104,7 +110,8 @@ std::vector<std::string> list_moge_instances(const std::string& root) {
     }
   } else {
     for (const auto& entry : fs::directory_iterator(base))
-      if (entry.is_directory() && fs::exists(entry.path() / "depth.png")) out.push_back(entry.path().string());
+      if (entry.is_directory() && fs::exists(entry.path() / "depth.png"))
+        out.push_back(entry.path().string());
     std::sort(out.begin(), out.end());
   }
   return out;

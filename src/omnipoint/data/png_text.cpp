@@ -47,7 +47,8 @@ void walk(const std::string& png, const std::string& name, Visit visit) {
   const auto fail = [&](const std::string& why) {
     throw std::runtime_error(name + ": not a valid PNG (" + why + ")");
   };
-  if (png.size() < kSignatureSize || png.compare(0, kSignatureSize, kSignature, kSignatureSize) != 0)
+  if (png.size() < kSignatureSize ||
+      png.compare(0, kSignatureSize, kSignature, kSignatureSize) != 0)
     fail("bad signature");
   std::size_t at = kSignatureSize;
   bool ended = false;

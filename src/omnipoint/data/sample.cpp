@@ -41,7 +41,8 @@ void validate_sample(const Sample& s, const std::string& what) {
   if (!s.distance.defined() || s.distance.dim() != 2 || s.distance.size(0) != h ||
       s.distance.size(1) != w || s.distance.scalar_type() != at::kFloat)
     fail("distance must be float32 (H, W) matching the camera");
-  if (!s.mask.defined() || s.mask.sizes() != s.distance.sizes() || s.mask.scalar_type() != at::kBool)
+  if (!s.mask.defined() || s.mask.sizes() != s.distance.sizes() ||
+      s.mask.scalar_type() != at::kBool)
     fail("mask must be bool (H, W)");
   if (!at::isfinite(s.distance).all().item<bool>()) fail("distance has NaN or infinite values");
   if ((s.distance < 0).any().item<bool>()) fail("distance has negative values");
@@ -89,7 +90,8 @@ Sample read_sample(const std::string& folder_name) {
       const auto depth = read_hw_npy(path, *cam).to(at::kFloat);
       const auto rz = rays.rays.select(-1, 2);
       const auto usable = rz.abs() > 1e-3;
-      distance = at::where(usable, depth / at::where(usable, rz, at::ones_like(rz)), at::zeros_like(depth));
+      distance = at::where(usable, depth / at::where(usable, rz, at::ones_like(rz)),
+                           at::zeros_like(depth));
     } else {
       fail("no distance.npy or depth.npy");
     }

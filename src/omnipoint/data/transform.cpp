@@ -10,9 +10,10 @@ namespace omnipoint::data {
 Sample crop_sample(const Sample& s, int64_t x0, int64_t y0, int64_t width, int64_t height) {
   if (x0 < 0 || y0 < 0 || width < 1 || height < 1 || x0 + width > s.camera.width() ||
       y0 + height > s.camera.height())
-    throw std::invalid_argument("crop window " + std::to_string(width) + "x" + std::to_string(height) +
-                                "+" + std::to_string(x0) + "+" + std::to_string(y0) +
-                                " does not fit the image " + s.camera.to_spec());
+    throw std::invalid_argument("crop window " + std::to_string(width) + "x" +
+                                std::to_string(height) + "+" + std::to_string(x0) + "+" +
+                                std::to_string(y0) + " does not fit the image " +
+                                s.camera.to_spec());
   const auto window = [&](const at::Tensor& t) {
     return t.narrow(0, y0, height).narrow(1, x0, width).contiguous();
   };
@@ -22,8 +23,8 @@ Sample crop_sample(const Sample& s, int64_t x0, int64_t y0, int64_t width, int64
 
 Sample resize_sample(const Sample& s, int64_t width, int64_t height) {
   if (width < 1 || height < 1)
-    throw std::invalid_argument("resize to " + std::to_string(width) + "x" + std::to_string(height) +
-                                ": expected a positive size");
+    throw std::invalid_argument("resize to " + std::to_string(width) + "x" +
+                                std::to_string(height) + ": expected a positive size");
   const auto chw = s.image.permute({2, 0, 1}).unsqueeze(0);
   const bool shrinking = width < s.camera.width() || height < s.camera.height();
   const auto image = shrinking ? at::adaptive_avg_pool2d(chw, {height, width})
@@ -31,7 +32,8 @@ Sample resize_sample(const Sample& s, int64_t width, int64_t height) {
   // Nearest neighbour at the new pixel centres: source index floor((i + 0.5) * W / W').
   const auto pick = [](int64_t from, int64_t to, const at::TensorOptions& options) {
     return at::floor((at::arange(to, options.dtype(at::kDouble)) + 0.5) * (double(from) / to))
-        .clamp_max(from - 1).to(at::kLong);
+        .clamp_max(from - 1)
+        .to(at::kLong);
   };
   const auto rows = pick(s.camera.height(), height, s.distance.options());
   const auto cols = pick(s.camera.width(), width, s.distance.options());

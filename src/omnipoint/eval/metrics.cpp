@@ -11,8 +11,10 @@
 namespace omnipoint::eval {
 
 const std::array<const char*, 7> kMetricEntries = {
-    "depth_metric",   "depth_scale_invariant",  "depth_affine_invariant", "disparity_affine_invariant",
-    "points_metric",  "points_scale_invariant", "points_affine_invariant"};
+    "depth_metric",           "depth_scale_invariant",
+    "depth_affine_invariant", "disparity_affine_invariant",
+    "points_metric",          "points_scale_invariant",
+    "points_affine_invariant"};
 
 namespace {
 
@@ -29,7 +31,8 @@ Score depth_score(const at::Tensor& p, const at::Tensor& g, const std::string& e
                     " aligned depths are <= 0 (MoGe's delta1 counts them as within 1.25)");
   }
   const double rel = ((p - g).abs() / (g + kRelEps)).mean().item<double>();
-  const double delta1 = (at::maximum(g / p, p / g) < 1.25).to(p.scalar_type()).mean().item<double>();
+  const double delta1 =
+      (at::maximum(g / p, p / g) < 1.25).to(p.scalar_type()).mean().item<double>();
   return {rel, delta1};
 }
 
@@ -37,7 +40,8 @@ Score points_score(const at::Tensor& p, const at::Tensor& g) {
   const at::Tensor error = (p - g).norm(2, -1);
   const at::Tensor g_norm = g.norm(2, -1), p_norm = p.norm(2, -1);
   const double rel = (error / (g_norm + kRelEps)).mean().item<double>();
-  const double delta1 = (error < 0.25 * at::minimum(g_norm, p_norm)).to(p.scalar_type()).mean().item<double>();
+  const double delta1 =
+      (error < 0.25 * at::minimum(g_norm, p_norm)).to(p.scalar_type()).mean().item<double>();
   return {rel, delta1};
 }
 
@@ -46,13 +50,18 @@ std::vector<double> to_vector(const at::Tensor& t) {
   return std::vector<double>(c.data_ptr<double>(), c.data_ptr<double>() + c.numel());
 }
 
-bool all_finite(const at::Tensor& t) { return at::isfinite(t).all().item<bool>(); }
+bool all_finite(const at::Tensor& t) {
+  return at::isfinite(t).all().item<bool>();
+}
 
 // Whether all samples (rows along dim 0) are equal: an affine fit's scale is then undetermined.
-bool constant_rows(const at::Tensor& t) { return t.numel() == 0 || at::equal(t, t[0].expand_as(t)); }
+bool constant_rows(const at::Tensor& t) {
+  return t.numel() == 0 || at::equal(t, t[0].expand_as(t));
+}
 
 // Records an entry; a non-finite score becomes NaN with a warning naming the reason.
-void record(Metrics& out, const std::string& entry, Score score, Alignment alignment, const std::string& reason) {
+void record(Metrics& out, const std::string& entry, Score score, Alignment alignment,
+            const std::string& reason) {
   if (!std::isfinite(score.rel) || !std::isfinite(score.delta1) ||
       (!std::isnan(alignment.scale) && !std::isfinite(alignment.scale))) {
     score = {kNaN, kNaN};
@@ -73,16 +82,19 @@ void check_map(const at::Tensor& t, const at::Tensor& mask, bool points, const c
   auto expected = mask.sizes().vec();
   if (points) expected.push_back(3);
   if (t.sizes() != at::IntArrayRef(expected) || !at::isFloatingType(t.scalar_type())) {
-    throw std::invalid_argument(std::string("metrics: ") + name + " must be a floating tensor of shape " +
+    throw std::invalid_argument(std::string("metrics: ") + name +
+                                " must be a floating tensor of shape " +
                                 (points ? "(H, W, 3)" : "(H, W)") + " matching the mask");
   }
 }
 
-void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, const at::Tensor& lr_flat) {
+void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt,
+                   const at::Tensor& lr_flat) {
   const bool metric = gt.is_metric && pred.is_metric;
   std::vector<std::string> names;
   if (metric) names.push_back("depth_metric");
-  for (const char* name : {"depth_scale_invariant", "depth_affine_invariant", "disparity_affine_invariant"})
+  for (const char* name :
+       {"depth_scale_invariant", "depth_affine_invariant", "disparity_affine_invariant"})
     names.push_back(name);
   auto undefined = [&](const std::string& reason) {
     for (const auto& name : names) record_undefined(out, name, reason);
@@ -98,17 +110,22 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   const at::Tensor p_sub = pred.depth.flatten().index_select(0, lr_flat).to(g.scalar_type());
   const at::Tensor w_sub = 1 / g_sub;
 
-  if (metric) record(out, "depth_metric", depth_score(p, g, "depth_metric", out.warnings), {kNaN, {}, kNaN}, "non-finite score");
+  if (metric)
+    record(out, "depth_metric", depth_score(p, g, "depth_metric", out.warnings), {kNaN, {}, kNaN},
+           "non-finite score");
 
   const at::Tensor scale = geometry::fit_scale_l1(p_sub, g_sub, w_sub).scale;
-  record(out, "depth_scale_invariant", depth_score(p * scale, g, "depth_scale_invariant", out.warnings), {scale.item<double>(), {}, kNaN},
-         "the prediction is zero on the alignment samples");
+  record(out, "depth_scale_invariant",
+         depth_score(p * scale, g, "depth_scale_invariant", out.warnings),
+         {scale.item<double>(), {}, kNaN}, "the prediction is zero on the alignment samples");
 
   if (constant_rows(p_sub)) {
-    record_undefined(out, "depth_affine_invariant", "the prediction is constant on the alignment samples");
+    record_undefined(out, "depth_affine_invariant",
+                     "the prediction is constant on the alignment samples");
   } else {
     const geometry::AffineFit affine = geometry::fit_affine_l1(p_sub, g_sub, w_sub);
-    record(out, "depth_affine_invariant", depth_score(p * affine.scale + affine.shift, g, "depth_affine_invariant", out.warnings),
+    record(out, "depth_affine_invariant",
+           depth_score(p * affine.scale + affine.shift, g, "depth_affine_invariant", out.warnings),
            {affine.scale.item<double>(), to_vector(affine.shift), kNaN}, "degenerate affine fit");
   }
 
@@ -126,15 +143,18 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   const double s = (n * sdt - sd * st) / det, t = (st - s * sd) / n;
   const double min_disparity = 1.0 / g.max().item<double>();
   const at::Tensor disparity = (s * (1 / p) + t).clamp_min(min_disparity);
-  record(out, "disparity_affine_invariant", depth_score(1 / disparity, g, "disparity_affine_invariant", out.warnings), {s, {t}, min_disparity},
-         "degenerate disparity fit");
+  record(out, "disparity_affine_invariant",
+         depth_score(1 / disparity, g, "disparity_affine_invariant", out.warnings),
+         {s, {t}, min_disparity}, "degenerate disparity fit");
 }
 
-void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, const at::Tensor& lr_flat) {
+void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt,
+                   const at::Tensor& lr_flat) {
   const bool metric = gt.is_metric && pred.is_metric;
   std::vector<std::string> names;
   if (metric) names.push_back("points_metric");
-  for (const char* name : {"points_scale_invariant", "points_affine_invariant"}) names.push_back(name);
+  for (const char* name : {"points_scale_invariant", "points_affine_invariant"})
+    names.push_back(name);
   auto undefined = [&](const std::string& reason) {
     for (const auto& name : names) record_undefined(out, name, reason);
   };
@@ -147,18 +167,22 @@ void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt, 
   if (!all_finite(p)) return undefined("predicted points have NaN/inf at valid pixels");
 
   const at::Tensor g_sub = gt.points.reshape({-1, 3}).index_select(0, lr_flat);
-  const at::Tensor p_sub = pred.points.reshape({-1, 3}).index_select(0, lr_flat).to(g.scalar_type());
+  const at::Tensor p_sub =
+      pred.points.reshape({-1, 3}).index_select(0, lr_flat).to(g.scalar_type());
   const at::Tensor w_sub = 1 / g_sub.norm(2, -1);
 
   if (metric) {
     const at::Tensor shift = geometry::fit_points_shift_l1(p_sub, g_sub, w_sub);
-    record(out, "points_metric", points_score(p + shift, g), {kNaN, to_vector(shift), kNaN}, "degenerate shift fit");
+    record(out, "points_metric", points_score(p + shift, g), {kNaN, to_vector(shift), kNaN},
+           "degenerate shift fit");
   }
   const at::Tensor scale = geometry::fit_points_scale_l1(p_sub, g_sub, w_sub).scale;
-  record(out, "points_scale_invariant", points_score(p * scale, g), {scale.item<double>(), {}, kNaN},
+  record(out, "points_scale_invariant", points_score(p * scale, g),
+         {scale.item<double>(), {}, kNaN},
          "the predicted points are zero on the alignment samples");
   if (constant_rows(p_sub)) {
-    record_undefined(out, "points_affine_invariant", "the predicted points are all equal on the alignment samples");
+    record_undefined(out, "points_affine_invariant",
+                     "the predicted points are all equal on the alignment samples");
   } else {
     const geometry::AffineFit affine = geometry::fit_points_affine_l1_anchored(p_sub, g_sub, w_sub);
     record(out, "points_affine_invariant", points_score(p * affine.scale + affine.shift, g),
@@ -186,9 +210,12 @@ Subsample mask_aware_subsample(const at::Tensor& mask, int64_t size) {
   const at::Tensor top = at::round(cy - static_cast<float>(fh / 2)).to(at::kLong);
 
   // Candidates (size, size, kh·kw) in row-major window order.
-  const at::Tensor dy = at::arange(kh, i64).repeat_interleave(kw), dx = at::arange(kw, i64).repeat({kh});
-  const at::Tensor rows = (top.view({-1, 1, 1}) + dy.view({1, 1, -1})).expand({size, size, kh * kw});
-  const at::Tensor cols = (left.view({1, -1, 1}) + dx.view({1, 1, -1})).expand({size, size, kh * kw});
+  const at::Tensor dy = at::arange(kh, i64).repeat_interleave(kw),
+                   dx = at::arange(kw, i64).repeat({kh});
+  const at::Tensor rows =
+      (top.view({-1, 1, 1}) + dy.view({1, 1, -1})).expand({size, size, kh * kw});
+  const at::Tensor cols =
+      (left.view({1, -1, 1}) + dx.view({1, 1, -1})).expand({size, size, kh * kw});
   const at::Tensor inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width);
   const at::Tensor r = rows.clamp(0, height - 1), c = cols.clamp(0, width - 1);
   const at::Tensor valid = inside & mask.flatten().index({(r * width + c)});

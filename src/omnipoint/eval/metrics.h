@@ -53,7 +53,7 @@ struct Score {
 // The fitted alignment of an entry (NaN / empty where the entry has none).
 struct Alignment {
   double scale;
-  std::vector<double> shift;  // 1 value for depth, 3 for points
+  std::vector<double> shift;   // 1 value for depth, 3 for points
   double clamp_min_disparity;  // disparity_affine_invariant only
 };
 

@@ -36,8 +36,8 @@ GeometryPrediction prediction_from_points(const at::Tensor& points, bool is_metr
   return prediction;
 }
 
-Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& name, int64_t num_tokens,
-                              at::Device device) {
+Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& name,
+                              int64_t num_tokens, at::Device device) {
   model->to(device);
   model->eval();
   const int64_t patch = model->config().encoder.backbone_config.patch_size;
@@ -45,13 +45,17 @@ Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& na
   predictor.name = name;
   predictor.accepts_intrinsics = true;
   predictor.accepts_sparse_depth = true;
-  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item, const Conditions& conditions) mutable {
+  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item,
+                                                         const Conditions& conditions) mutable {
     torch::NoGradGuard no_grad;
     model::OmniPointInputs inputs;
     inputs.image = image_batch(item.sample, device);
-    if (conditions.rays.defined()) inputs.rays = conditions.rays.permute({2, 0, 1}).unsqueeze(0).to(device);
-    if (conditions.sparse_depth.defined()) inputs.sparse_depth = conditions.sparse_depth.unsqueeze(0).to(device);
-    model::OmniPointOutput output = model->forward(inputs, tokens_for(item.sample, num_tokens, patch));
+    if (conditions.rays.defined())
+      inputs.rays = conditions.rays.permute({2, 0, 1}).unsqueeze(0).to(device);
+    if (conditions.sparse_depth.defined())
+      inputs.sparse_depth = conditions.sparse_depth.unsqueeze(0).to(device);
+    model::OmniPointOutput output =
+        model->forward(inputs, tokens_for(item.sample, num_tokens, patch));
     if (inputs.sparse_depth.defined() && item.sample.metric)
       output = model::align_to_metric_sparse_depth(output, inputs.sparse_depth);
     GeometryPrediction prediction;
@@ -74,12 +78,14 @@ Predictor moge2_predictor(model::MoGe2Model model, const std::string& name, int6
   const int64_t patch = model->config().encoder.backbone_config.patch_size;
   Predictor predictor;
   predictor.name = name;
-  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item, const Conditions&) mutable {
+  predictor.predict = [model, num_tokens, device, patch](const EvalSample& item,
+                                                         const Conditions&) mutable {
     torch::NoGradGuard no_grad;
     model::MoGe2InferOptions options;
     options.apply_mask = false;  // the protocol scores every GT-valid pixel
     const model::MoGe2Inference inference =
-        model::infer(model, image_batch(item.sample, device), tokens_for(item.sample, num_tokens, patch), options);
+        model::infer(model, image_batch(item.sample, device),
+                     tokens_for(item.sample, num_tokens, patch), options);
     GeometryPrediction prediction;
     prediction.rays = inference.rays[0].to(at::kCPU, at::kFloat);
     prediction.distance = inference.distance[0].to(at::kCPU, at::kFloat);
@@ -89,7 +95,8 @@ Predictor moge2_predictor(model::MoGe2Model model, const std::string& name, int6
   return predictor;
 }
 
-Predictor point_map_predictor(const std::string& name, std::function<at::Tensor(const EvalSample&)> load) {
+Predictor point_map_predictor(const std::string& name,
+                              std::function<at::Tensor(const EvalSample&)> load) {
   Predictor predictor;
   predictor.name = name;
   predictor.predict = [load](const EvalSample& item, const Conditions&) {
@@ -115,7 +122,8 @@ Predictor oracle_predictor() {
 
 Predictor constant_distance_predictor(double distance) {
   if (!(distance > 0) || !std::isfinite(distance))
-    throw std::invalid_argument("constant distance " + std::to_string(distance) + ": expected > 0 metres");
+    throw std::invalid_argument("constant distance " + std::to_string(distance) +
+                                ": expected > 0 metres");
   Predictor predictor;
   char label[64];
   std::snprintf(label, sizeof label, "constant distance %g m (GT rays)", distance);

@@ -20,18 +20,24 @@ const std::array<Split, 3> kSplits{Split::kSmallFov, Split::kLargeFov, Split::kP
 
 std::string split_name(Split split) {
   switch (split) {
-    case Split::kSmallFov: return "S.FoV";
-    case Split::kLargeFov: return "L.FoV";
-    case Split::kPanorama: return "360°";
+    case Split::kSmallFov:
+      return "S.FoV";
+    case Split::kLargeFov:
+      return "L.FoV";
+    case Split::kPanorama:
+      return "360°";
   }
   return "";
 }
 
 Split camera_split(const camera::Camera& camera) {
   switch (camera::camera_class(camera)) {
-    case camera::CameraClass::kPanorama: return Split::kPanorama;
-    case camera::CameraClass::kWide: return Split::kLargeFov;
-    case camera::CameraClass::kPerspective: break;
+    case camera::CameraClass::kPanorama:
+      return Split::kPanorama;
+    case camera::CameraClass::kWide:
+      return Split::kLargeFov;
+    case camera::CameraClass::kPerspective:
+      break;
   }
   return Split::kSmallFov;
 }
@@ -57,19 +63,21 @@ uint64_t sample_seed(const std::string& id, uint64_t seed) {
   return hash ^ (seed * 0x9E3779B97F4A7C15ull);
 }
 
-Conditions make_conditions(const data::Sample& sample, const Mode& mode, int64_t sparse_depth_points,
-                           uint64_t seed) {
+Conditions make_conditions(const data::Sample& sample, const Mode& mode,
+                           int64_t sparse_depth_points, uint64_t seed) {
   Conditions conditions;
   if (mode.intrinsics) conditions.rays = sample.camera.ray_map(at::kFloat).rays;
   if (mode.sparse_depth) {
     auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
     conditions.sparse_depth =
-        geometry::sample_uniform(sample.distance, sample.mask, sparse_depth_points, generator).depth;
+        geometry::sample_uniform(sample.distance, sample.mask, sparse_depth_points, generator)
+            .depth;
   }
   return conditions;
 }
 
-Metrics score_sample(const data::Sample& sample, Split split, const GeometryPrediction& prediction) {
+Metrics score_sample(const data::Sample& sample, Split split,
+                     const GeometryPrediction& prediction) {
   const auto height = sample.distance.size(0), width = sample.distance.size(1);
   const auto expect = [&](const at::Tensor& t, std::vector<int64_t> shape, const char* what) {
     if (!t.defined() || t.sizes() != at::IntArrayRef(shape))
@@ -98,7 +106,9 @@ Metrics score_sample(const data::Sample& sample, Split split, const GeometryPred
 
 namespace {
 
-nlohmann::json number(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+nlohmann::json number(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
+}
 
 nlohmann::json metrics_json(const Metrics& metrics) {
   nlohmann::json entries = nlohmann::json::object();
@@ -113,8 +123,8 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
                         const RunOptions& options) {
   if (datasets.empty()) throw std::invalid_argument("no dataset given");
   if (options.sparse_depth_points < 1)
-    throw std::invalid_argument("sparse depth points " + std::to_string(options.sparse_depth_points) +
-                                ": expected >= 1");
+    throw std::invalid_argument("sparse depth points " +
+                                std::to_string(options.sparse_depth_points) + ": expected >= 1");
   std::vector<std::pair<std::string, data::DatasetItem>> items;
   for (const auto& root : datasets)
     for (auto& item : data::list_dataset(root)) items.emplace_back(root, std::move(item));
@@ -136,11 +146,14 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
   std::map<std::string, std::map<std::string, std::vector<Metrics>>> per_split;
   std::map<std::string, int64_t> split_samples;
   const auto start = std::chrono::steady_clock::now();
-  const auto skip = [&](const std::string& dataset, const std::string& id, const std::string& reason,
-                        const std::string& error) {
+  const auto skip = [&](const std::string& dataset, const std::string& id,
+                        const std::string& reason, const std::string& error) {
     ++summary.skipped[reason];
-    result.records.push_back(
-        nlohmann::json{{"dataset", dataset}, {"id", id}, {"skipped", reason}, {"error", error}}.dump());
+    result.records.push_back(nlohmann::json{
+        {"dataset", dataset},
+        {"id", id},
+        {"skipped", reason},
+        {"error", error}}.dump());
   };
 
   for (size_t index = 0; index < items.size(); ++index) {
@@ -163,8 +176,10 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
           const auto t0 = std::chrono::steady_clock::now();
           const Conditions conditions = make_conditions(
               sample.sample, mode, options.sparse_depth_points, sample_seed(item.id, options.seed));
-          Metrics metrics = score_sample(sample.sample, sample.split, predictor.predict(sample, conditions));
-          const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          Metrics metrics =
+              score_sample(sample.sample, sample.split, predictor.predict(sample, conditions));
+          const double seconds =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           lines.push_back(nlohmann::json{{"dataset", root},
                                          {"id", item.id},
                                          {"split", split},
@@ -192,8 +207,9 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
       }
     }
     if (options.progress)
-      options.progress(static_cast<int64_t>(index + 1), summary.samples_total,
-                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      options.progress(
+          static_cast<int64_t>(index + 1), summary.samples_total,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
 
   for (const auto& [split, by_mode] : per_split)
@@ -243,7 +259,8 @@ std::string markdown_table(const std::vector<Summary>& summaries) {
     }
   }
   std::string table = header + "\n" + rule + "\n";
-  const auto cell = [](const std::map<std::string, AveragedScore>* entries, const char* entry, bool rel) {
+  const auto cell = [](const std::map<std::string, AveragedScore>* entries, const char* entry,
+                       bool rel) {
     if (!entries || !entries->count(entry)) return std::string("–");
     const AveragedScore& score = entries->at(entry);
     const double value = 100.0 * (rel ? score.rel : score.delta1);

@@ -80,8 +80,8 @@ struct Predictor {
 struct RunOptions {
   std::vector<Mode> modes{Mode{}};
   int64_t sparse_depth_points = 1000;
-  uint64_t seed = 0;          // mixed into every sample's sparse-depth seed
-  bool moge_metric = true;    // MoGe benchmark depth is in metres
+  uint64_t seed = 0;        // mixed into every sample's sparse-depth seed
+  bool moge_metric = true;  // MoGe benchmark depth is in metres
   // Called after each sample: (samples done, total, seconds elapsed).
   std::function<void(int64_t, int64_t, double)> progress;
 };
@@ -95,8 +95,8 @@ struct SplitScores {
 struct Summary {
   std::string model;
   std::vector<std::string> datasets;
-  std::vector<std::string> modes;                 // the modes that ran, in order
-  std::vector<std::string> modes_not_supported;   // asked for but the predictor takes no such input
+  std::vector<std::string> modes;                // the modes that ran, in order
+  std::vector<std::string> modes_not_supported;  // asked for but the predictor takes no such input
   int64_t sparse_depth_points = 0;
   int64_t samples_total = 0;
   int64_t samples_evaluated = 0;
@@ -120,8 +120,8 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
 Metrics score_sample(const data::Sample& sample, Split split, const GeometryPrediction& prediction);
 
 // The conditions of `mode` for a sample (sparse depth drawn with `seed`).
-Conditions make_conditions(const data::Sample& sample, const Mode& mode, int64_t sparse_depth_points,
-                           uint64_t seed);
+Conditions make_conditions(const data::Sample& sample, const Mode& mode,
+                           int64_t sparse_depth_points, uint64_t seed);
 // The sparse-depth seed of a sample: a hash of its id mixed with the run seed.
 uint64_t sample_seed(const std::string& id, uint64_t seed);
 

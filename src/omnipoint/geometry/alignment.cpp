@@ -37,7 +37,8 @@ void check_inputs(const at::Tensor& x, const at::Tensor& y, const at::Tensor& we
   check_same_shape(x, weight, "samples", "weight");
   if (mask.defined()) {
     check_same_shape(x, mask, "samples", "mask");
-    if (mask.scalar_type() != at::kBool) throw std::invalid_argument("alignment: mask must be bool");
+    if (mask.scalar_type() != at::kBool)
+      throw std::invalid_argument("alignment: mask must be bool");
   }
 }
 
@@ -66,7 +67,9 @@ at::Tensor median_position(const at::Tensor& sorted_weight) {
   return (2 * cumulative - total < 0).sum(-1, /*keepdim=*/true).clamp_max(n - 1);
 }
 
-at::Tensor nan_like(const at::Tensor& t) { return at::full_like(t, std::numeric_limits<double>::quiet_NaN()); }
+at::Tensor nan_like(const at::Tensor& t) {
+  return at::full_like(t, std::numeric_limits<double>::quiet_NaN());
+}
 
 // Weighted-median scale on (B, n) sanitized samples.
 ScaleFit scale_fit_rows(const at::Tensor& x, const at::Tensor& y, const at::Tensor& w) {
@@ -109,13 +112,15 @@ ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in
   const at::Tensor active = c > 0;
   const at::Tensor inf_t = at::full({}, inf, x.options());
   const at::Tensor c_safe = at::where(active, c, at::ones_like(c));
-  const at::Tensor A = at::where(active, ys / xs.clamp_min(std::numeric_limits<double>::min()), inf_t);
+  const at::Tensor A =
+      at::where(active, ys / xs.clamp_min(std::numeric_limits<double>::min()), inf_t);
   // Keep B < A < C strictly even where T/c vanishes against A in rounding.
   const at::Tensor B = at::minimum(A - trunc / c_safe, at::nextafter(A, -inf_t));
   const at::Tensor C = at::maximum(A + trunc / c_safe, at::nextafter(A, inf_t));
   const at::Tensor B_s = at::where(active, B, inf_t), C_s = at::where(active, C, inf_t);
   const at::Tensor constant_terms =
-      at::where(active, at::zeros_like(c), at::minimum(w * y.abs(), at::full({}, trunc, x.options())))
+      at::where(active, at::zeros_like(c),
+                at::minimum(w * y.abs(), at::full({}, trunc, x.options())))
           .sum(-1, true);
 
   const at::Tensor one = active.to(at::kDouble);
@@ -134,9 +139,9 @@ ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in
   std::tie(sB, nB1, cB1, aB1) = prefix(B_s);
   std::tie(sC, nC1, cC1, aC1) = prefix(C_s);
   const at::Tensor a = at::where(active, A, at::zeros_like(A));  // queries
-  const at::Tensor iB = at::searchsorted(sB, a, false, false);  // #{B < a}
-  const at::Tensor iA = at::searchsorted(sA, a, false, false);  // #{A < a}
-  const at::Tensor iC = at::searchsorted(sC, a, false, true);   // #{C <= a}
+  const at::Tensor iB = at::searchsorted(sB, a, false, false);   // #{B < a}
+  const at::Tensor iA = at::searchsorted(sA, a, false, false);   // #{A < a}
+  const at::Tensor iC = at::searchsorted(sC, a, false, true);    // #{C <= a}
   auto at_ = [](const at::Tensor& v, const at::Tensor& i) { return v.gather(-1, i); };
   const at::Tensor left_n = at_(nB1, iB) - at_(nA1, iA), left_c = at_(cB1, iB) - at_(cA1, iA),
                    left_a = at_(aB1, iB) - at_(aA1, iA);
@@ -152,10 +157,8 @@ ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in
   const at::Tensor xk = x_in.gather(-1, index), yk = y_in.gather(-1, index);
   const at::Tensor sk = xk.sign();
   at::Tensor scale = ((yk * sk) / (xk * sk).clamp_min(kRatioEps)).squeeze(-1);
-  at::Tensor loss = (w_in * (scale.unsqueeze(-1) * x_in - y_in).abs())
-                        .clamp_max(trunc)
-                        .sum(-1)
-                        .to(dtype);
+  at::Tensor loss =
+      (w_in * (scale.unsqueeze(-1) * x_in - y_in).abs()).clamp_max(trunc).sum(-1).to(dtype);
   index = index.squeeze(-1);
   const at::Tensor empty = ~active.any(-1);
   scale = at::where(empty, nan_like(scale), scale);
@@ -168,8 +171,8 @@ ScaleFit truncated_scale_fit_rows(const at::Tensor& x_in, const at::Tensor& y_in
 // derivative of F(s) = Σ_c min_t Σ_i w|R_i − t| there: Σ_i w_i·σ_i·(X_k − X_i), with
 // σ_i = +1 after the pivot k in sorted order and −1 before it. Meant for slopes s that are
 // not breakpoints of F (no tie among the residuals), where F is differentiable.
-std::pair<at::Tensor, at::Tensor> median_pivots(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
-                                                const at::Tensor& s) {
+std::pair<at::Tensor, at::Tensor> median_pivots(const at::Tensor& X, const at::Tensor& Y,
+                                                const at::Tensor& W, const at::Tensor& s) {
   const at::Tensor order = std::get<1>((Y - s.view({-1, 1, 1}) * X).sort(-1));
   const at::Tensor ws = W.gather(-1, order);
   const at::Tensor wxs = ws * X.gather(-1, order);
@@ -177,21 +180,26 @@ std::pair<at::Tensor, at::Tensor> median_pivots(const at::Tensor& X, const at::T
   const at::Tensor pivot = order.gather(-1, pos);
   const at::Tensor cw = ws.cumsum(-1), cwx = wxs.cumsum(-1);
   const at::Tensor w_upto = cw.gather(-1, pos), wx_upto = cwx.gather(-1, pos);
-  const at::Tensor w_before = w_upto - ws.gather(-1, pos), wx_before = wx_upto - wxs.gather(-1, pos);
+  const at::Tensor w_before = w_upto - ws.gather(-1, pos),
+                   wx_before = wx_upto - wxs.gather(-1, pos);
   const at::Tensor w_after = cw.narrow(-1, cw.size(-1) - 1, 1) - w_upto;
   const at::Tensor wx_after = cwx.narrow(-1, cwx.size(-1) - 1, 1) - wx_upto;
-  const at::Tensor derivative = (X.gather(-1, pivot) * (w_after - w_before) - (wx_after - wx_before)).sum({-2, -1});
+  const at::Tensor derivative =
+      (X.gather(-1, pivot) * (w_after - w_before) - (wx_after - wx_before)).sum({-2, -1});
   return {pivot, derivative};
 }
 
 // The best scale through the given pivots: min_σ Σ_c Σ_i w|(Y − Y_k) − σ(X − X_k)|.
-at::Tensor scale_through(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W, const at::Tensor& pivot) {
-  const at::Tensor x = (X - X.gather(-1, pivot)).flatten(1), y = (Y - Y.gather(-1, pivot)).flatten(1);
+at::Tensor scale_through(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
+                         const at::Tensor& pivot) {
+  const at::Tensor x = (X - X.gather(-1, pivot)).flatten(1),
+                   y = (Y - Y.gather(-1, pivot)).flatten(1);
   return scale_fit_rows(x, y, W.flatten(1)).scale;
 }
 
 // The optimal shifts for a given scale (per-axis weighted medians of the residuals).
-at::Tensor median_shift(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W, const at::Tensor& s) {
+at::Tensor median_shift(const at::Tensor& X, const at::Tensor& Y, const at::Tensor& W,
+                        const at::Tensor& s) {
   const at::Tensor R = Y - s.view({-1, 1, 1}) * X;
   at::Tensor sorted, order;
   std::tie(sorted, order) = R.sort(-1);
@@ -223,8 +231,11 @@ AffineFit pivot_descent(const at::Tensor& X_in, const at::Tensor& Y_in, const at
   at::Tensor s = scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1)).scale;
   s = at::where(at::isfinite(s), s, at::zeros_like(s));
   at::Tensor active = at::ones({batch}, X.options().dtype(at::kBool));
-  auto probe = [&](const at::Tensor& s, double side) { return s + side * kProbe * s.abs().clamp_min(1e-6); };
-  for (int iteration = 0; iteration < kMaxPivotIterations && active.any().item<bool>(); ++iteration) {
+  auto probe = [&](const at::Tensor& s, double side) {
+    return s + side * kProbe * s.abs().clamp_min(1e-6);
+  };
+  for (int iteration = 0; iteration < kMaxPivotIterations && active.any().item<bool>();
+       ++iteration) {
     at::Tensor right_pivot, right_slope, left_pivot, left_slope;
     std::tie(right_pivot, right_slope) = median_pivots(X, Y, W, probe(s, 1));
     std::tie(left_pivot, left_slope) = median_pivots(X, Y, W, probe(s, -1));
@@ -267,16 +278,19 @@ AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Te
   const int64_t batch = X.size(0), axes = X.size(1), n = X.size(2);
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<at::Tensor> scales, shifts;
-  const int64_t max_chunk = std::max<int64_t>(1, kMaxElementsPerChunk / std::max<int64_t>(1, axes * n));
+  const int64_t max_chunk =
+      std::max<int64_t>(1, kMaxElementsPerChunk / std::max<int64_t>(1, axes * n));
   for (int64_t b = 0; b < batch; ++b) {
     const at::Tensor xb = X[b], yb = Y[b], wb = W[b];  // (C, n)
     const at::Tensor usable = at::logical_and(candidates[b], (wb > 0).any(0));
-    const at::Tensor bounds = at::where(usable, lower[b].to(at::kDouble), at::full({}, inf, lower.options().dtype(at::kDouble)));
+    const at::Tensor bounds = at::where(usable, lower[b].to(at::kDouble),
+                                        at::full({}, inf, lower.options().dtype(at::kDouble)));
     at::Tensor sorted_bounds, order;
     std::tie(sorted_bounds, order) = at::sort(bounds, /*stable=*/true, 0, false);
     const int64_t count = usable.sum().item<int64_t>();
     // Losses closer than the dtype's rounding are ties: no need to solve further anchors.
-    const double slack = (X.scalar_type() == at::kDouble ? 1e-12 : 1e-6) * (wb * yb.abs()).sum().item<double>();
+    const double slack =
+        (X.scalar_type() == at::kDouble ? 1e-12 : 1e-6) * (wb * yb.abs()).sum().item<double>();
     const at::Tensor w_row = wb.flatten().unsqueeze(0);
     double best_loss = inf;
     at::Tensor best_scale = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
@@ -285,8 +299,10 @@ AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Te
     for (int64_t start = 0; start < count; start += chunk, chunk = std::min(2 * chunk, max_chunk)) {
       if (sorted_bounds[start].item<double>() >= best_loss - slack) break;
       const at::Tensor ids = order.narrow(0, start, std::min(chunk, count - start));
-      const at::Tensor x_rel = (xb.unsqueeze(0) - xb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
-      const at::Tensor y_rel = (yb.unsqueeze(0) - yb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
+      const at::Tensor x_rel =
+          (xb.unsqueeze(0) - xb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
+      const at::Tensor y_rel =
+          (yb.unsqueeze(0) - yb.index_select(1, ids).t().unsqueeze(-1)).flatten(1);
       const ScaleFit fit = scale_fit_rows(x_rel, y_rel, w_row.expand_as(x_rel));
       // An anchor sharing x with every sample leaves the scale free: take 0.
       const at::Tensor free = at::isnan(fit.scale);
@@ -315,7 +331,8 @@ AffineFit anchored_search(const at::Tensor& X, const at::Tensor& Y, const at::Te
 std::pair<at::Tensor, at::Tensor> anchored_objectives(const at::Tensor& X, const at::Tensor& Y,
                                                       const at::Tensor& W, const at::Tensor& s) {
   const int64_t n = X.size(-1);
-  const at::Tensor R = Y.unsqueeze(1) - s.view({s.size(0), s.size(1), 1, 1}) * X.unsqueeze(1);  // (B, m, C, n)
+  const at::Tensor R =
+      Y.unsqueeze(1) - s.view({s.size(0), s.size(1), 1, 1}) * X.unsqueeze(1);  // (B, m, C, n)
   at::Tensor sorted, order;
   std::tie(sorted, order) = R.sort(-1);
   const at::Tensor ws = W.unsqueeze(1).expand_as(R).gather(-1, order);
@@ -337,7 +354,8 @@ std::pair<at::Tensor, at::Tensor> anchored_objectives(const at::Tensor& X, const
 // the subgradient changes sign between s_l and s_l+1 the minimum lies in between, above
 // both tangents, so above their crossing. Returns (bound, crossing slope), both (B, n);
 // -inf / NaN where the sign does not change within the slopes.
-std::pair<at::Tensor, at::Tensor> tangent_bounds(const at::Tensor& s, const at::Tensor& value, const at::Tensor& slope) {
+std::pair<at::Tensor, at::Tensor> tangent_bounds(const at::Tensor& s, const at::Tensor& value,
+                                                 const at::Tensor& slope) {
   const double inf = std::numeric_limits<double>::infinity();
   at::Tensor lower = at::full_like(value.select(1, 0), -inf);
   at::Tensor crossing = at::full_like(lower, std::numeric_limits<double>::quiet_NaN());
@@ -348,7 +366,8 @@ std::pair<at::Tensor, at::Tensor> tangent_bounds(const at::Tensor& s, const at::
     const at::Tensor bracket = at::logical_and(d0 <= 0, d1 >= 0);
     const at::Tensor denominator = d1 - d0;
     const at::Tensor safe = at::where(denominator > 0, denominator, at::ones_like(denominator));
-    const at::Tensor x = at::where(denominator > 0, (f0 - f1 - d0 * s0 + d1 * s1) / safe, s0.expand_as(f0));
+    const at::Tensor x =
+        at::where(denominator > 0, (f0 - f1 - d0 * s0 + d1 * s1) / safe, s0.expand_as(f0));
     const at::Tensor bound = at::where(denominator > 0, f0 + d0 * (x - s0), at::minimum(f0, f1));
     const at::Tensor tighter = at::logical_and(bracket, bound > lower);
     lower = at::where(tighter, bound, lower);
@@ -370,9 +389,10 @@ AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const
   at::Tensor centre = pivot_descent(Xd, Yd, Wd).scale;
   centre = at::where(at::isfinite(centre), centre, at::ones_like(centre));
   const at::Tensor base = at::where(centre.abs() > 0, centre.abs(), at::ones_like(centre));
-  const at::Tensor offsets = at::tensor({-10.0, -3.0, -1.0, -0.3, -0.1, -0.03, -1e-2, -3e-3, -1e-3, -1e-4, 0.0,
-                                         1e-4, 1e-3, 3e-3, 1e-2, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0},
-                                        Xd.options());
+  const at::Tensor offsets =
+      at::tensor({-10.0, -3.0, -1.0, -0.3, -0.1, -0.03, -1e-2, -3e-3, -1e-3, -1e-4, 0.0,
+                  1e-4,  1e-3, 3e-3, 1e-2, 0.03, 0.1,   0.3,   1.0,   3.0,   10.0},
+                 Xd.options());
   at::Tensor s = centre.unsqueeze(1) + base.unsqueeze(1) * offsets.unsqueeze(0);  // (B, m)
   at::Tensor value, slope, lower, crossing, candidates;
   std::tie(value, slope) = anchored_objectives(Xd, Yd, Wd, s);
@@ -384,8 +404,9 @@ AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const
     if (round == kRefinements || candidates.sum(-1).max().item<int64_t>() <= kFewCandidates) break;
     // New slopes at quantiles of the candidates' tangent crossings, where their minima lie.
     const at::Tensor q = at::linspace(0.0, 1.0, kSlopesPerRefinement, Xd.options());
-    const at::Tensor at_candidates = at::where(at::logical_and(candidates, at::isfinite(crossing)), crossing,
-                                               at::full({}, std::numeric_limits<double>::quiet_NaN(), Xd.options()));
+    const at::Tensor at_candidates =
+        at::where(at::logical_and(candidates, at::isfinite(crossing)), crossing,
+                  at::full({}, std::numeric_limits<double>::quiet_NaN(), Xd.options()));
     at::Tensor extra = at::nanquantile(at_candidates, q, -1).t();  // (B, K)
     extra = at::where(at::isfinite(extra), extra, centre.unsqueeze(1));
     at::Tensor extra_value, extra_slope;
@@ -401,7 +422,8 @@ AffineFit pruned_anchored_search(const at::Tensor& X, const at::Tensor& Y, const
 
 // No lower bound for any anchor of (B, C, n) samples: the exhaustive search.
 at::Tensor unbounded(const at::Tensor& X) {
-  return at::full({X.size(0), X.size(2)}, -std::numeric_limits<double>::infinity(), X.options().dtype(at::kDouble));
+  return at::full({X.size(0), X.size(2)}, -std::numeric_limits<double>::infinity(),
+                  X.options().dtype(at::kDouble));
 }
 
 // The number of batch items of samples with `sample_dims` trailing sample dimensions.
@@ -413,18 +435,22 @@ int64_t batch_count(const at::Tensor& t, int64_t sample_dims) {
 
 // Flattens (..., n) samples into (B, 1, n) rows.
 std::tuple<at::Tensor, at::Tensor, at::Tensor> depth_rows(const at::Tensor& x, const at::Tensor& y,
-                                                          const at::Tensor& weight, const at::Tensor& mask) {
+                                                          const at::Tensor& weight,
+                                                          const at::Tensor& mask) {
   check_inputs(x, y, weight, mask);
   at::Tensor xs, ys, ws;
   std::tie(xs, ys, ws) = sanitize(x, y, weight, mask);
   const int64_t n = x.size(-1);
   const int64_t b = batch_count(x, 1);
-  return {pad_empty(xs.reshape({b, 1, n})), pad_empty(ys.reshape({b, 1, n})), pad_empty(ws.reshape({b, 1, n}))};
+  return {pad_empty(xs.reshape({b, 1, n})), pad_empty(ys.reshape({b, 1, n})),
+          pad_empty(ws.reshape({b, 1, n}))};
 }
 
 // Points (..., n, 3) with weight (..., n) into (B, 3, n) axis rows.
-std::tuple<at::Tensor, at::Tensor, at::Tensor> points_rows(const at::Tensor& source, const at::Tensor& target,
-                                                           const at::Tensor& weight, const at::Tensor& mask) {
+std::tuple<at::Tensor, at::Tensor, at::Tensor> points_rows(const at::Tensor& source,
+                                                           const at::Tensor& target,
+                                                           const at::Tensor& weight,
+                                                           const at::Tensor& mask) {
   check_same_shape(source, target, "source points", "target points");
   if (source.dim() < 2 || source.size(-1) != 3) {
     throw std::invalid_argument("alignment: points must have shape (..., n, 3)");
@@ -436,7 +462,9 @@ std::tuple<at::Tensor, at::Tensor, at::Tensor> points_rows(const at::Tensor& sou
   std::tie(xs, ys, ws) = sanitize(source, target, w3, m3);
   const int64_t n = source.size(-2);
   const int64_t b = batch_count(source, 2);
-  auto rows = [n, b](const at::Tensor& t) { return pad_empty(t.reshape({b, n, 3}).transpose(1, 2).contiguous()); };
+  auto rows = [n, b](const at::Tensor& t) {
+    return pad_empty(t.reshape({b, n, 3}).transpose(1, 2).contiguous());
+  };
   return {rows(xs), rows(ys), rows(ws)};
 }
 
@@ -447,7 +475,8 @@ std::vector<int64_t> batch_shape_of(const at::Tensor& t, int64_t sample_dims) {
 AffineFit reshape_affine(AffineFit fit, const std::vector<int64_t>& batch_shape, bool points) {
   std::vector<int64_t> shift_shape = batch_shape;
   if (points) shift_shape.push_back(3);
-  return {fit.scale.reshape(batch_shape), fit.shift.reshape(shift_shape), fit.loss.reshape(batch_shape)};
+  return {fit.scale.reshape(batch_shape), fit.shift.reshape(shift_shape),
+          fit.loss.reshape(batch_shape)};
 }
 
 }  // namespace
@@ -472,7 +501,8 @@ ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const 
   const int64_t n = x.size(-1);
   const int64_t b = batch_count(x, 1);
   auto rows = [n, b](const at::Tensor& t) { return pad_empty(t.reshape({b, n})); };
-  return reshape_fit(truncated_scale_fit_rows(rows(xs), rows(ys), rows(ws), trunc), batch_shape_of(x, 1));
+  return reshape_fit(truncated_scale_fit_rows(rows(xs), rows(ys), rows(ws), trunc),
+                     batch_shape_of(x, 1));
 }
 
 AffineFit fit_affine_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
@@ -484,8 +514,8 @@ AffineFit fit_affine_l1(const at::Tensor& x, const at::Tensor& y, const at::Tens
   return reshape_affine(fit, batch_shape_of(x, 1), false);
 }
 
-AffineFit fit_affine_l1_brute_force(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
-                                    const at::Tensor& mask) {
+AffineFit fit_affine_l1_brute_force(const at::Tensor& x, const at::Tensor& y,
+                                    const at::Tensor& weight, const at::Tensor& mask) {
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = depth_rows(x, y, weight, mask);
   const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
@@ -494,20 +524,22 @@ AffineFit fit_affine_l1_brute_force(const at::Tensor& x, const at::Tensor& y, co
   return reshape_affine(fit, batch_shape_of(x, 1), false);
 }
 
-ScaleFit fit_points_scale_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
-                             const at::Tensor& mask, double trunc) {
+ScaleFit fit_points_scale_l1(const at::Tensor& source, const at::Tensor& target,
+                             const at::Tensor& weight, const at::Tensor& mask, double trunc) {
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
-  const ScaleFit fit = trunc > 0 ? truncated_scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1), trunc)
-                                 : scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1));
+  const ScaleFit fit =
+      trunc > 0 ? truncated_scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1), trunc)
+                : scale_fit_rows(X.flatten(1), Y.flatten(1), W.flatten(1));
   // Report the index into the (n, 3) layout of the input.
   const int64_t n = X.size(2);
-  const at::Tensor index = at::where(fit.index >= 0, (fit.index % n) * 3 + fit.index.div(n, "floor"), fit.index);
+  const at::Tensor index =
+      at::where(fit.index >= 0, (fit.index % n) * 3 + fit.index.div(n, "floor"), fit.index);
   return reshape_fit({fit.scale, fit.loss, index}, batch_shape_of(source, 2));
 }
 
-at::Tensor fit_points_shift_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
-                               const at::Tensor& mask) {
+at::Tensor fit_points_shift_l1(const at::Tensor& source, const at::Tensor& target,
+                               const at::Tensor& weight, const at::Tensor& mask) {
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
   const at::Tensor ones = at::where(W > 0, at::ones_like(X), at::zeros_like(X));
@@ -517,8 +549,8 @@ at::Tensor fit_points_shift_l1(const at::Tensor& source, const at::Tensor& targe
   return shift.reshape(shape);
 }
 
-AffineFit fit_points_affine_l1(const at::Tensor& source, const at::Tensor& target, const at::Tensor& weight,
-                               const at::Tensor& mask) {
+AffineFit fit_points_affine_l1(const at::Tensor& source, const at::Tensor& target,
+                               const at::Tensor& weight, const at::Tensor& mask) {
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
   return reshape_affine(pivot_descent(X, Y, W), batch_shape_of(source, 2), true);
@@ -531,16 +563,20 @@ AffineFit fit_points_affine_l1_anchored(const at::Tensor& source, const at::Tens
   return reshape_affine(pruned_anchored_search(X, Y, W), batch_shape_of(source, 2), true);
 }
 
-AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source, const at::Tensor& target,
-                                                    const at::Tensor& weight, const at::Tensor& mask) {
+AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source,
+                                                    const at::Tensor& target,
+                                                    const at::Tensor& weight,
+                                                    const at::Tensor& mask) {
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
   const at::Tensor all = at::ones({X.size(0), X.size(2)}, X.options().dtype(at::kBool));
-  return reshape_affine(anchored_search(X, Y, W, all, unbounded(X)), batch_shape_of(source, 2), true);
+  return reshape_affine(anchored_search(X, Y, W, all, unbounded(X)), batch_shape_of(source, 2),
+                        true);
 }
 
 AffineFit fit_points_scale_z_shift_l1_truncated(const at::Tensor& source, const at::Tensor& target,
-                                                const at::Tensor& weight, double trunc, const at::Tensor& mask) {
+                                                const at::Tensor& weight, double trunc,
+                                                const at::Tensor& mask) {
   if (!(trunc > 0)) throw std::invalid_argument("alignment: trunc must be positive");
   at::Tensor X, Y, W;
   std::tie(X, Y, W) = points_rows(source, target, weight, mask);
@@ -557,11 +593,13 @@ AffineFit fit_points_scale_z_shift_l1_truncated(const at::Tensor& source, const 
     at::Tensor best_shift = at::full({}, std::numeric_limits<double>::quiet_NaN(), X.options());
     for (int64_t start = 0; start < anchors.numel(); start += max_chunk) {
       const at::Tensor ids = anchors.narrow(0, start, std::min(max_chunk, anchors.numel() - start));
-      const at::Tensor px = xb[2].index_select(0, ids).view({-1, 1, 1}), gz = yb[2].index_select(0, ids).view({-1, 1, 1});
+      const at::Tensor px = xb[2].index_select(0, ids).view({-1, 1, 1}),
+                       gz = yb[2].index_select(0, ids).view({-1, 1, 1});
       const at::Tensor x_rel = (xb.unsqueeze(0) - z_only * px).flatten(1);
       const at::Tensor y_rel = (yb.unsqueeze(0) - z_only * gz).flatten(1);
       const ScaleFit fit = truncated_scale_fit_rows(x_rel, y_rel, w_row.expand_as(x_rel), trunc);
-      const at::Tensor loss = at::where(at::isnan(fit.loss), at::full({}, inf, fit.loss.options()), fit.loss);
+      const at::Tensor loss =
+          at::where(at::isnan(fit.loss), at::full({}, inf, fit.loss.options()), fit.loss);
       const int64_t i = loss.argmin().item<int64_t>();
       if (loss[i].item<double>() < best_loss) {
         best_loss = loss[i].item<double>();
@@ -570,11 +608,13 @@ AffineFit fit_points_scale_z_shift_l1_truncated(const at::Tensor& source, const 
       }
     }
     scales.push_back(best_scale);
-    shifts.push_back(at::stack({at::zeros_like(best_shift), at::zeros_like(best_shift), best_shift}));
+    shifts.push_back(
+        at::stack({at::zeros_like(best_shift), at::zeros_like(best_shift), best_shift}));
   }
   const at::Tensor scale = at::stack(scales), shift = at::stack(shifts);
-  const at::Tensor loss =
-      (W * (scale.view({-1, 1, 1}) * X + shift.unsqueeze(-1) - Y).abs()).clamp_max(trunc).sum({-2, -1});
+  const at::Tensor loss = (W * (scale.view({-1, 1, 1}) * X + shift.unsqueeze(-1) - Y).abs())
+                              .clamp_max(trunc)
+                              .sum({-2, -1});
   return reshape_affine({scale, shift, loss}, batch_shape_of(source, 2), true);
 }
 

@@ -29,9 +29,8 @@ ScaleFit fit_scale_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor
 // The truncated variant used by MoGe's training losses: min_a Σ min(trunc, w_i|a·x_i − y_i|)
 // (trunc > 0). The objective is not convex, but its minimum lies at one of the ratios
 // y_i/x_i; all n candidates are scored at once with prefix sums, O(n log n).
-ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y,
-                                const at::Tensor& weight, double trunc,
-                                const at::Tensor& mask = {});
+ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
+                                double trunc, const at::Tensor& mask = {});
 
 // min_{s,t} Σ w_i |s·x_i + t − y_i| (depth: affine-invariant alignment).
 struct AffineFit {
@@ -81,7 +80,9 @@ AffineFit fit_points_affine_l1(const at::Tensor& source, const at::Tensor& targe
 AffineFit fit_points_affine_l1_anchored(const at::Tensor& source, const at::Tensor& target,
                                         const at::Tensor& weight, const at::Tensor& mask = {});
 // The same without pruning (MoGe's method, O(n² log n)); the reference for tests.
-AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source, const at::Tensor& target,
-                                                    const at::Tensor& weight, const at::Tensor& mask = {});
+AffineFit fit_points_affine_l1_anchored_brute_force(const at::Tensor& source,
+                                                    const at::Tensor& target,
+                                                    const at::Tensor& weight,
+                                                    const at::Tensor& mask = {});
 
 }  // namespace omnipoint::geometry

@@ -37,7 +37,8 @@ RaysAndDistance rays_from_points(const at::Tensor& points) {
   const at::Tensor norm = points.norm(2, -1);
   const at::Tensor valid = (norm > 0).logical_and(at::isfinite(norm));
   const at::Tensor safe = at::where(valid, norm, at::ones_like(norm));
-  const at::Tensor rays = at::where(valid.unsqueeze(-1), points / safe.unsqueeze(-1), at::zeros_like(points));
+  const at::Tensor rays =
+      at::where(valid.unsqueeze(-1), points / safe.unsqueeze(-1), at::zeros_like(points));
   return {rays, at::where(valid, norm, at::zeros_like(norm)), valid};
 }
 
@@ -49,7 +50,8 @@ at::Tensor planar_depth(const at::Tensor& points) {
 DistanceFromDepth distance_from_planar_depth(const at::Tensor& depth, const at::Tensor& rays) {
   check_vectors(rays, "distance_from_planar_depth", "rays");
   if (!depth.defined() || !at::isFloatingType(depth.scalar_type())) {
-    throw std::invalid_argument("distance_from_planar_depth: depth must be a floating tensor (...)");
+    throw std::invalid_argument(
+        "distance_from_planar_depth: depth must be a floating tensor (...)");
   }
   const at::Tensor forward = rays.select(-1, 2);
   const at::Tensor safe = at::where(forward > 0, forward, at::ones_like(forward));
@@ -111,7 +113,8 @@ PointCloud make_point_cloud(const at::Tensor& point_map, const at::Tensor& image
   }
   const auto map_shape = point_map.sizes().slice(0, point_map.dim() - 1);
   if (mask.defined() && (mask.scalar_type() != at::kBool || mask.sizes() != map_shape)) {
-    throw std::invalid_argument("make_point_cloud: mask must be a bool tensor of shape (..., H, W)");
+    throw std::invalid_argument(
+        "make_point_cloud: mask must be a bool tensor of shape (..., H, W)");
   }
   at::Tensor valid = at::isfinite(point_map).all(-1);
   if (mask.defined()) valid = valid.logical_and(mask);
@@ -135,7 +138,8 @@ PointCloud make_point_cloud(const at::Tensor& point_map, const at::Tensor& image
 PointCloud valid_points(const PointCloud& cloud) {
   if (!cloud.points.defined() || cloud.points.dim() != 2 || !cloud.valid.defined() ||
       cloud.valid.dim() != 1 || cloud.valid.size(0) != cloud.points.size(0)) {
-    throw std::invalid_argument("valid_points: expected an unbatched cloud of (N, 3) points with (N) validity");
+    throw std::invalid_argument(
+        "valid_points: expected an unbatched cloud of (N, 3) points with (N) validity");
   }
   const at::Tensor keep = cloud.valid.nonzero().squeeze(1);
   return {cloud.points.index_select(0, keep),

@@ -24,8 +24,9 @@ void check_inputs(const at::Tensor& sparse, const at::Tensor& valid, const Splat
     throw std::invalid_argument(
         "splat_sparse_depth: the validity mask must be a bool tensor of the depth's shape");
   }
-  if (options.radius < 0 || !(options.sigma_per_depth > 0) || !std::isfinite(options.sigma_per_depth) ||
-      !(options.min_sigma > 0) || !std::isfinite(options.min_sigma)) {
+  if (options.radius < 0 || !(options.sigma_per_depth > 0) ||
+      !std::isfinite(options.sigma_per_depth) || !(options.min_sigma > 0) ||
+      !std::isfinite(options.min_sigma)) {
     throw std::invalid_argument(
         "splat_sparse_depth: expected radius >= 0 and finite sigma_per_depth, min_sigma > 0");
   }
@@ -87,7 +88,8 @@ SplattedDepth splat_sparse_depth(const at::Tensor& sparse, const at::Tensor& val
   const auto [offset_rows, offset_cols] = disc_offsets(options.radius, depth.device());
   const std::int64_t num_samples = index.size(0);
   const std::int64_t num_offsets = offset_rows.size(0);
-  const std::int64_t per_pass = std::max<std::int64_t>(1, kMaxPairsPerPass / std::max<std::int64_t>(num_samples, 1));
+  const std::int64_t per_pass =
+      std::max<std::int64_t>(1, kMaxPairsPerPass / std::max<std::int64_t>(num_samples, 1));
 
   at::Tensor numerator = at::zeros({batch * pixels}, depth.options());
   at::Tensor denominator = at::zeros({batch * pixels}, depth.options());
@@ -98,12 +100,13 @@ SplattedDepth splat_sparse_depth(const at::Tensor& sparse, const at::Tensor& val
     const at::Tensor du = offset_cols.slice(0, begin, end).unsqueeze(0);
     const at::Tensor target_row = row.unsqueeze(1) + dv;  // (N, k)
     const at::Tensor target_col = col.unsqueeze(1) + du;
-    const at::Tensor inside = (target_row >= 0) & (target_row < height) & (target_col >= 0) &
-                              (target_col < width);
-    const at::Tensor target = item_base + target_row.clamp(0, height - 1) * width +
-                              target_col.clamp(0, width - 1);
+    const at::Tensor inside =
+        (target_row >= 0) & (target_row < height) & (target_col >= 0) & (target_col < width);
+    const at::Tensor target =
+        item_base + target_row.clamp(0, height - 1) * width + target_col.clamp(0, width - 1);
     const at::Tensor squared = (du * du + dv * dv).to(depth.scalar_type());
-    const at::Tensor weight = at::exp(-squared * inverse_two_sigma2) * inside.to(depth.scalar_type());
+    const at::Tensor weight =
+        at::exp(-squared * inverse_two_sigma2) * inside.to(depth.scalar_type());
     numerator.index_add_(0, target.reshape(-1), (weight * value.unsqueeze(1)).reshape(-1));
     denominator.index_add_(0, target.reshape(-1), weight.reshape(-1));
   }

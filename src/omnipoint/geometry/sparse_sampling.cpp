@@ -19,15 +19,18 @@ struct Flat {
 
 Flat flatten_map(const at::Tensor& dense, const at::Tensor& valid, const char* function) {
   if (!dense.defined() || dense.dim() < 2 || !at::isFloatingType(dense.scalar_type())) {
-    throw std::invalid_argument(std::string(function) + ": the dense map must be a floating tensor (..., H, W)");
+    throw std::invalid_argument(std::string(function) +
+                                ": the dense map must be a floating tensor (..., H, W)");
   }
   if (!valid.defined() || valid.scalar_type() != at::kBool || valid.sizes() != dense.sizes()) {
-    throw std::invalid_argument(std::string(function) + ": valid must be a bool tensor of the map's shape");
+    throw std::invalid_argument(std::string(function) +
+                                ": valid must be a bool tensor of the map's shape");
   }
   const int64_t pixels = dense.size(-1) * dense.size(-2);
   const int64_t batch = pixels > 0 ? dense.numel() / pixels : 0;
   const at::Tensor values = dense.reshape({batch, pixels});
-  return {values, valid.reshape({batch, pixels}).logical_and(at::isfinite(values)), dense.sizes().vec()};
+  return {values, valid.reshape({batch, pixels}).logical_and(at::isfinite(values)),
+          dense.sizes().vec()};
 }
 
 void check_generator(const at::Generator& generator, const char* function) {
@@ -44,9 +47,11 @@ SparseDepth unflatten(const Flat& flat, const at::Tensor& selected) {
 // The first `counts` (B) valid pixels of each item in a random order.
 SparseDepth sample_counts(const Flat& flat, const at::Tensor& counts, at::Generator generator) {
   const int64_t batch = flat.values.size(0), pixels = flat.values.size(1);
-  const at::Tensor keys = at::rand({batch, pixels}, generator, at::kDouble).to(flat.values.device());
+  const at::Tensor keys =
+      at::rand({batch, pixels}, generator, at::kDouble).to(flat.values.device());
   // Invalid pixels sort after every valid one.
-  const at::Tensor order = at::where(flat.valid, keys, at::full_like(keys, 2.0)).argsort(/*dim=*/int64_t{1});
+  const at::Tensor order =
+      at::where(flat.valid, keys, at::full_like(keys, 2.0)).argsort(/*dim=*/int64_t{1});
   const at::Tensor position = at::arange(pixels, order.options()).expand({batch, pixels});
   const at::Tensor rank = at::empty_like(order).scatter_(1, order, position);
   return unflatten(flat, (rank < counts.unsqueeze(1)).logical_and(flat.valid));
@@ -64,7 +69,8 @@ SparseDepth sample_uniform(const at::Tensor& dense, const at::Tensor& valid, std
   const Flat flat = flatten_map(dense, valid, "sample_uniform");
   check_generator(generator, "sample_uniform");
   if (count < 0) throw std::invalid_argument("sample_uniform: the sample count must be >= 0");
-  const at::Tensor counts = at::full({flat.values.size(0)}, count, flat.values.options().dtype(at::kLong));
+  const at::Tensor counts =
+      at::full({flat.values.size(0)}, count, flat.values.options().dtype(at::kLong));
   return sample_counts(flat, counts, generator);
 }
 
@@ -72,7 +78,8 @@ SparseDepth sample_uniform_ratio(const at::Tensor& dense, const at::Tensor& vali
                                  at::Generator generator) {
   const Flat flat = flatten_map(dense, valid, "sample_uniform_ratio");
   check_generator(generator, "sample_uniform_ratio");
-  if (!(ratio > 0 && ratio <= 1)) throw std::invalid_argument("sample_uniform_ratio: ratio must lie in (0, 1]");
+  if (!(ratio > 0 && ratio <= 1))
+    throw std::invalid_argument("sample_uniform_ratio: ratio must lie in (0, 1]");
   const at::Tensor available = flat.valid.sum(1);
   const at::Tensor counts = at::minimum(
       (available.to(at::kDouble) * ratio).round().to(at::kLong).clamp_min(1), available);
@@ -89,13 +96,16 @@ SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const
   if (!rays.defined() || rays.size(-1) != 3 || !at::isFloatingType(rays.scalar_type()) ||
       !(shared ? rays.size(0) == height && rays.size(1) == width
                : rays.sizes().slice(0, rays.dim() - 1) == map_shape)) {
-    throw std::invalid_argument("sample_lidar: rays must be (H, W, 3) or (..., H, W, 3) matching the map");
+    throw std::invalid_argument(
+        "sample_lidar: rays must be (H, W, 3) or (..., H, W, 3) matching the map");
   }
   if (pattern.beams < 1 || pattern.azimuth_steps < 1 || !std::isfinite(pattern.min_elevation_deg) ||
-      !std::isfinite(pattern.max_elevation_deg) || pattern.max_elevation_deg < pattern.min_elevation_deg ||
-      pattern.min_elevation_deg < -90 || pattern.max_elevation_deg > 90) {
+      !std::isfinite(pattern.max_elevation_deg) ||
+      pattern.max_elevation_deg < pattern.min_elevation_deg || pattern.min_elevation_deg < -90 ||
+      pattern.max_elevation_deg > 90) {
     throw std::invalid_argument(
-        "sample_lidar: expected beams >= 1, azimuth_steps >= 1 and -90 <= min <= max <= 90 degrees elevation");
+        "sample_lidar: expected beams >= 1, azimuth_steps >= 1 and -90 <= min <= max <= 90 degrees "
+        "elevation");
   }
   const int64_t ray_items = shared ? 1 : batch;
   const at::Tensor r = rays.reshape({ray_items, height, width, 3}).to(flat.values.scalar_type());
@@ -109,8 +119,10 @@ SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const
     const at::Tensor a = r.narrow(dim, forward ? 0 : 1, n - 1);
     const at::Tensor b = r.narrow(dim, forward ? 1 : 0, n - 1);
     const at::Tensor both = a.ne(0).any(-1).logical_and(b.ne(0).any(-1));
-    const at::Tensor angle = at::where(both, angle_between(a, b), at::zeros_like(both, r.options()));
-    spacing.narrow(dim, forward ? 0 : 1, n - 1).copy_(at::maximum(spacing.narrow(dim, forward ? 0 : 1, n - 1), angle));
+    const at::Tensor angle =
+        at::where(both, angle_between(a, b), at::zeros_like(both, r.options()));
+    spacing.narrow(dim, forward ? 0 : 1, n - 1)
+        .copy_(at::maximum(spacing.narrow(dim, forward ? 0 : 1, n - 1), angle));
   };
   neighbour_angle(1, true);
   neighbour_angle(1, false);
@@ -121,54 +133,69 @@ SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const
   const double deg = M_PI / 180.0;
   const double min_elevation = pattern.min_elevation_deg * deg;
   const double elevation_step =
-      pattern.beams > 1 ? (pattern.max_elevation_deg - pattern.min_elevation_deg) * deg / (pattern.beams - 1) : 1.0;
+      pattern.beams > 1
+          ? (pattern.max_elevation_deg - pattern.min_elevation_deg) * deg / (pattern.beams - 1)
+          : 1.0;
   const double azimuth_step = 2 * M_PI / pattern.azimuth_steps;
   const at::Tensor elevation = at::asin((-r.select(-1, 1)).clamp(-1, 1));
   const at::Tensor azimuth = at::atan2(r.select(-1, 0), r.select(-1, 2));
   const at::Tensor beam = ((elevation - min_elevation) / elevation_step).round().to(at::kLong);
-  const at::Tensor firing = at::remainder((azimuth / azimuth_step).round().to(at::kLong), pattern.azimuth_steps);
+  const at::Tensor firing =
+      at::remainder((azimuth / azimuth_step).round().to(at::kLong), pattern.azimuth_steps);
   const at::Tensor beam_elevation = min_elevation + beam.to(r.scalar_type()) * elevation_step;
   const at::Tensor firing_azimuth = firing.to(r.scalar_type()) * azimuth_step;
-  const at::Tensor direction = at::stack({beam_elevation.cos() * firing_azimuth.sin(), -beam_elevation.sin(),
-                                          beam_elevation.cos() * firing_azimuth.cos()}, -1);
+  const at::Tensor direction =
+      at::stack({beam_elevation.cos() * firing_azimuth.sin(), -beam_elevation.sin(),
+                 beam_elevation.cos() * firing_azimuth.cos()},
+                -1);
   const at::Tensor error = angle_between(r, direction);
-  const at::Tensor candidate = ray_ok.logical_and(beam >= 0).logical_and(beam < pattern.beams)
+  const at::Tensor candidate = ray_ok.logical_and(beam >= 0)
+                                   .logical_and(beam < pattern.beams)
                                    .logical_and(error <= spacing * (0.5 * std::sqrt(2.0)));
 
   // Per (item, beam, firing) cell, the pixel with the smallest error wins (ties: lowest index).
   const int64_t cells = pattern.beams * pattern.azimuth_steps;
   const at::Tensor item = at::arange(ray_items, beam.options()).view({ray_items, 1, 1});
   const at::Tensor cell = at::where(candidate, item * cells + beam * pattern.azimuth_steps + firing,
-                                    at::zeros_like(beam)).reshape(-1);
+                                    at::zeros_like(beam))
+                              .reshape(-1);
   const double inf = std::numeric_limits<double>::infinity();
-  const at::Tensor masked_error = at::where(candidate, error, at::full_like(error, inf)).reshape(-1);
+  const at::Tensor masked_error =
+      at::where(candidate, error, at::full_like(error, inf)).reshape(-1);
   const at::Tensor best = at::full({ray_items * cells}, inf, r.options())
                               .scatter_reduce(0, cell, masked_error, "amin", /*include_self=*/true);
   const at::Tensor index = at::arange(ray_items * pixels, beam.options());
-  const at::Tensor ties = candidate.reshape(-1).logical_and(masked_error == best.index_select(0, cell));
+  const at::Tensor ties =
+      candidate.reshape(-1).logical_and(masked_error == best.index_select(0, cell));
   const int64_t none = ray_items * pixels;
-  const at::Tensor first = at::full({ray_items * cells}, none, beam.options())
-                               .scatter_reduce(0, cell, at::where(ties, index, at::full_like(index, none)), "amin",
-                                               /*include_self=*/true);
-  const at::Tensor hit = ties.logical_and(first.index_select(0, cell) == index).view({ray_items, pixels});
+  const at::Tensor first =
+      at::full({ray_items * cells}, none, beam.options())
+          .scatter_reduce(0, cell, at::where(ties, index, at::full_like(index, none)), "amin",
+                          /*include_self=*/true);
+  const at::Tensor hit =
+      ties.logical_and(first.index_select(0, cell) == index).view({ray_items, pixels});
   return unflatten(flat, hit.expand({batch, pixels}).logical_and(flat.valid));
 }
 
 SparseDepth add_noise(const SparseDepth& sparse, const DepthNoise& noise, at::Generator generator) {
   check_generator(generator, "add_noise");
-  if (!sparse.depth.defined() || !sparse.valid.defined() || sparse.depth.sizes() != sparse.valid.sizes() ||
+  if (!sparse.depth.defined() || !sparse.valid.defined() ||
+      sparse.depth.sizes() != sparse.valid.sizes() ||
       !at::isFloatingType(sparse.depth.scalar_type())) {
     throw std::invalid_argument("add_noise: expected sparse depth and validity of the same shape");
   }
   if (!(noise.relative_sigma >= 0) || !(noise.outlier_ratio >= 0 && noise.outlier_ratio <= 1) ||
       !(noise.outlier_max_factor >= 1) || !std::isfinite(noise.relative_sigma) ||
       !std::isfinite(noise.outlier_max_factor)) {
-    throw std::invalid_argument("add_noise: expected relative_sigma >= 0, outlier_ratio in [0, 1], outlier_max_factor >= 1");
+    throw std::invalid_argument(
+        "add_noise: expected relative_sigma >= 0, outlier_ratio in [0, 1], outlier_max_factor >= "
+        "1");
   }
   const auto shape = sparse.depth.sizes();
   const auto to_map = [&](const at::Tensor& t) { return t.to(sparse.depth.options()); };
   const at::Tensor gaussian = to_map(at::randn(shape, generator, at::kDouble));
-  const at::Tensor pick = at::rand(shape, generator, at::kDouble).to(sparse.depth.device()) < noise.outlier_ratio;
+  const at::Tensor pick =
+      at::rand(shape, generator, at::kDouble).to(sparse.depth.device()) < noise.outlier_ratio;
   const at::Tensor spread = to_map(at::rand(shape, generator, at::kDouble) * 2 - 1);
   at::Tensor depth = sparse.depth * at::exp(gaussian * noise.relative_sigma);
   depth = at::where(pick, depth * at::exp(spread * std::log(noise.outlier_max_factor)), depth);
@@ -178,15 +205,20 @@ SparseDepth add_noise(const SparseDepth& sparse, const DepthNoise& noise, at::Ge
 SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distance,
                               const at::Tensor& value, const at::Tensor& valid, std::int64_t width,
                               std::int64_t height) {
-  if (!pixels.defined() || pixels.dim() < 2 || pixels.size(-1) != 2 || !at::isFloatingType(pixels.scalar_type())) {
+  if (!pixels.defined() || pixels.dim() < 2 || pixels.size(-1) != 2 ||
+      !at::isFloatingType(pixels.scalar_type())) {
     throw std::invalid_argument("rasterize_nearest: pixels must be a floating tensor (..., N, 2)");
   }
   const auto point_shape = pixels.sizes().slice(0, pixels.dim() - 1);
-  if (!distance.defined() || distance.sizes() != point_shape || !value.defined() || value.sizes() != point_shape ||
-      !valid.defined() || valid.sizes() != point_shape || valid.scalar_type() != at::kBool) {
-    throw std::invalid_argument("rasterize_nearest: distance, value (..., N) and bool valid (..., N) must match the pixels");
+  if (!distance.defined() || distance.sizes() != point_shape || !value.defined() ||
+      value.sizes() != point_shape || !valid.defined() || valid.sizes() != point_shape ||
+      valid.scalar_type() != at::kBool) {
+    throw std::invalid_argument(
+        "rasterize_nearest: distance, value (..., N) and bool valid (..., N) must match the "
+        "pixels");
   }
-  if (width < 1 || height < 1) throw std::invalid_argument("rasterize_nearest: the image size must be positive");
+  if (width < 1 || height < 1)
+    throw std::invalid_argument("rasterize_nearest: the image size must be positive");
   const int64_t n = pixels.size(-2);
   int64_t batch = 1;
   for (std::size_t i = 0; i + 1 < point_shape.size(); ++i) batch *= point_shape[i];
@@ -194,20 +226,28 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
   const at::Tensor d = distance.reshape({batch, n}).to(p.scalar_type());
   const at::Tensor v = value.reshape({batch, n}).to(p.scalar_type());
   const at::Tensor col = at::floor(p.select(-1, 0)), row = at::floor(p.select(-1, 1));
-  const at::Tensor ok = valid.reshape({batch, n}).logical_and(col >= 0).logical_and(col < width)
-                            .logical_and(row >= 0).logical_and(row < height)
-                            .logical_and(at::isfinite(d)).logical_and(d > 0).logical_and(at::isfinite(v));
+  const at::Tensor ok = valid.reshape({batch, n})
+                            .logical_and(col >= 0)
+                            .logical_and(col < width)
+                            .logical_and(row >= 0)
+                            .logical_and(row < height)
+                            .logical_and(at::isfinite(d))
+                            .logical_and(d > 0)
+                            .logical_and(at::isfinite(v));
   const at::Tensor item = at::arange(batch, p.options().dtype(at::kLong)).unsqueeze(1);
-  const at::Tensor target = at::where(ok, item * (height * width) + row.to(at::kLong) * width + col.to(at::kLong),
-                                      at::zeros_like(item)).reshape(-1);
+  const at::Tensor target =
+      at::where(ok, item * (height * width) + row.to(at::kLong) * width + col.to(at::kLong),
+                at::zeros_like(item))
+          .reshape(-1);
   const double inf = std::numeric_limits<double>::infinity();
   const at::Tensor masked = at::where(ok, d, at::full_like(d, inf)).reshape(-1);
   const at::Tensor nearest = at::full({batch * height * width}, inf, p.options())
                                  .scatter_reduce(0, target, masked, "amin", /*include_self=*/true);
   const at::Tensor winner = ok.reshape(-1).logical_and(masked == nearest.index_select(0, target));
-  const at::Tensor stored = at::full({batch * height * width}, inf, p.options())
-                                .scatter_reduce(0, target, at::where(winner, v.reshape(-1), at::full_like(masked, inf)),
-                                                "amin", /*include_self=*/true);
+  const at::Tensor stored =
+      at::full({batch * height * width}, inf, p.options())
+          .scatter_reduce(0, target, at::where(winner, v.reshape(-1), at::full_like(masked, inf)),
+                          "amin", /*include_self=*/true);
   const at::Tensor hit = at::isfinite(nearest);
   auto shape = std::vector<int64_t>(point_shape.begin(), point_shape.end() - 1);
   shape.push_back(height);
@@ -217,8 +257,10 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
 
 SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Camera& camera,
                                      const at::Tensor& valid, SparseValue value) {
-  if (!points.defined() || points.dim() < 2 || points.size(-1) != 3 || !at::isFloatingType(points.scalar_type())) {
-    throw std::invalid_argument("sparse_depth_from_points: points must be a floating tensor (..., N, 3)");
+  if (!points.defined() || points.dim() < 2 || points.size(-1) != 3 ||
+      !at::isFloatingType(points.scalar_type())) {
+    throw std::invalid_argument(
+        "sparse_depth_from_points: points must be a floating tensor (..., N, 3)");
   }
   const auto point_shape = points.sizes().slice(0, points.dim() - 1);
   if (valid.defined() && (valid.scalar_type() != at::kBool || valid.sizes() != point_shape)) {

@@ -39,8 +39,8 @@ void write_file_atomically(const std::string& path,
       if (!out) throw std::runtime_error(path + ": write failed (disk full?)");
     }
     // mkstemp creates 0600; give the file the usual permissions.
-    fs::permissions(tmp, fs::perms::owner_read | fs::perms::owner_write |
-                             fs::perms::group_read | fs::perms::others_read);
+    fs::permissions(tmp, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
+                             fs::perms::others_read);
     fs::rename(tmp, target);
   } catch (...) {
     std::remove(tmp.c_str());

@@ -27,15 +27,18 @@ void append_u32(std::string& out, uint32_t value) {
 
 std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors) {
   if (points.dim() != 2 || points.size(1) != 3 || !at::isFloatingType(points.scalar_type()))
-    throw std::invalid_argument("glb: points must be floating (N, 3), got " + c10::str(points.sizes()));
+    throw std::invalid_argument("glb: points must be floating (N, 3), got " +
+                                c10::str(points.sizes()));
   const int64_t count = points.size(0);
   if (colors.defined() && (colors.scalar_type() != at::kByte || colors.sizes() != points.sizes()))
     throw std::invalid_argument("glb: colors must be uint8 (N, 3) like the points");
   // glTF: y up, looking along -z.
   const at::Tensor positions =
       (points.to(at::kCPU, at::kFloat) * at::tensor({1.0f, -1.0f, -1.0f})).contiguous();
-  if (!at::isfinite(positions).all().item<bool>()) throw std::invalid_argument("glb: points must be finite");
-  const at::Tensor rgb = colors.defined() ? colors.to(at::kCPU) : at::full({count, 3}, 255, at::kByte);
+  if (!at::isfinite(positions).all().item<bool>())
+    throw std::invalid_argument("glb: points must be finite");
+  const at::Tensor rgb =
+      colors.defined() ? colors.to(at::kCPU) : at::full({count, 3}, 255, at::kByte);
   const at::Tensor rgba = at::cat({rgb, at::full({count, 1}, 255, at::kByte)}, 1).contiguous();
 
   const int64_t position_bytes = count * 12, color_bytes = count * 4;
@@ -61,14 +64,25 @@ std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors
     const json attributes = {{"POSITION", 0}, {"COLOR_0", 1}};
     const json primitive = {{"attributes", attributes}, {"mode", kPoints}};
     gltf["meshes"] = json::array({json{{"primitives", json::array({primitive})}}});
-    gltf["accessors"] = json::array(
-        {json{{"bufferView", 0}, {"componentType", kFloat}, {"count", count}, {"type", "VEC3"},
-              {"min", vec(low)}, {"max", vec(high)}},
-         json{{"bufferView", 1}, {"componentType", kUnsignedByte}, {"normalized", true}, {"count", count},
-              {"type", "VEC4"}}});
-    gltf["bufferViews"] = json::array(
-        {json{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", position_bytes}, {"target", kArrayBuffer}},
-         json{{"buffer", 0}, {"byteOffset", position_bytes}, {"byteLength", color_bytes}, {"target", kArrayBuffer}}});
+    gltf["accessors"] = json::array({json{{"bufferView", 0},
+                                          {"componentType", kFloat},
+                                          {"count", count},
+                                          {"type", "VEC3"},
+                                          {"min", vec(low)},
+                                          {"max", vec(high)}},
+                                     json{{"bufferView", 1},
+                                          {"componentType", kUnsignedByte},
+                                          {"normalized", true},
+                                          {"count", count},
+                                          {"type", "VEC4"}}});
+    gltf["bufferViews"] = json::array({json{{"buffer", 0},
+                                            {"byteOffset", 0},
+                                            {"byteLength", position_bytes},
+                                            {"target", kArrayBuffer}},
+                                       json{{"buffer", 0},
+                                            {"byteOffset", position_bytes},
+                                            {"byteLength", color_bytes},
+                                            {"target", kArrayBuffer}}});
     gltf["buffers"] = json::array({json{{"byteLength", bin.size()}}});
   }
   std::string json = gltf.dump();
@@ -77,7 +91,8 @@ std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors
 
   const bool with_bin = count > 0;
   const size_t total = 12 + 8 + json.size() + (with_bin ? 8 + bin.size() : 0);
-  if (total > UINT32_MAX) throw std::invalid_argument("glb: the point cloud exceeds the 4 GiB GLB limit");
+  if (total > UINT32_MAX)
+    throw std::invalid_argument("glb: the point cloud exceeds the 4 GiB GLB limit");
   std::string out;
   out.reserve(total);
   append_u32(out, kMagic);
@@ -96,7 +111,9 @@ std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors
 
 void write_glb_points(const std::string& path, const at::Tensor& points, const at::Tensor& colors) {
   const std::string bytes = encode_glb_points(points, colors);
-  write_file_atomically(path, [&](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+  write_file_atomically(path, [&](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  });
 }
 
 }  // namespace omnipoint::io

@@ -21,6 +21,7 @@ namespace omnipoint::io {
 // (white). Bad shapes or dtypes, non-finite points -> std::invalid_argument.
 std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors = {});
 // Writes encode_glb_points(...) to `path` atomically.
-void write_glb_points(const std::string& path, const at::Tensor& points, const at::Tensor& colors = {});
+void write_glb_points(const std::string& path, const at::Tensor& points,
+                      const at::Tensor& colors = {});
 
 }  // namespace omnipoint::io

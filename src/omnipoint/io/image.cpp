@@ -35,11 +35,13 @@ Decoded decode(const std::string& path) {
     throw std::runtime_error(path + ": cannot decode the image: " + e.what());
   }
   if (decoded.empty()) {
-    throw std::runtime_error(path + ": cannot decode the image (corrupt file or unsupported format)");
+    throw std::runtime_error(path +
+                             ": cannot decode the image (corrupt file or unsupported format)");
   }
   const int depth = decoded.depth();
   if (depth != CV_8U && depth != CV_16U && depth != CV_32F) {
-    throw std::runtime_error(path + ": unsupported pixel depth (expected 8-bit, 16-bit or 32-bit float)");
+    throw std::runtime_error(path +
+                             ": unsupported pixel depth (expected 8-bit, 16-bit or 32-bit float)");
   }
   const int channels = decoded.channels();
   if (channels != 1 && channels != 3 && channels != 4) {
@@ -61,12 +63,15 @@ at::Tensor to_tensor(const cv::Mat& m) {
 
 }  // namespace
 
-bool image_io_available() { return true; }
+bool image_io_available() {
+  return true;
+}
 
 at::Tensor read_image(const std::string& path) {
   const Decoded decoded = decode(path);
   if (decoded.depth == CV_32F) {
-    throw std::runtime_error(path + ": a floating-point image is not a colour image (expected 8 or 16 bits)");
+    throw std::runtime_error(
+        path + ": a floating-point image is not a colour image (expected 8 or 16 bits)");
   }
   const double scale = decoded.depth == CV_16U ? 1.0 / 65535.0 : 1.0 / 255.0;
   at::Tensor t = to_tensor(decoded.values) * scale;
@@ -74,7 +79,9 @@ at::Tensor read_image(const std::string& path) {
   return t.narrow(-1, 0, 3).contiguous();
 }
 
-at::Tensor read_image_values(const std::string& path) { return to_tensor(decode(path).values); }
+at::Tensor read_image_values(const std::string& path) {
+  return to_tensor(decode(path).values);
+}
 
 void write_image_png(const std::string& path, const at::Tensor& image, int float_bits) {
   const auto bad = [&](const std::string& what) {
@@ -91,8 +98,10 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
   if (t.scalar_type() == at::kBool) {
     t = t.to(at::kByte) * 255;
   } else if (t.scalar_type() == at::kByte) {
-  } else if (t.scalar_type() == at::kShort || t.scalar_type() == at::kInt || t.scalar_type() == at::kLong) {
-    if (t.min().item<int64_t>() < 0 || t.max().item<int64_t>() > 65535) bad("16-bit values must lie in [0, 65535]");
+  } else if (t.scalar_type() == at::kShort || t.scalar_type() == at::kInt ||
+             t.scalar_type() == at::kLong) {
+    if (t.min().item<int64_t>() < 0 || t.max().item<int64_t>() > 65535)
+      bad("16-bit values must lie in [0, 65535]");
     t = t.to(at::kInt);
     sixteen = true;
   } else if (at::isFloatingType(t.scalar_type())) {
@@ -109,7 +118,8 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
   const int rows = static_cast<int>(t.size(0)), cols = static_cast<int>(t.size(1));
   cv::Mat m;
   if (sixteen) {
-    cv::Mat(rows, cols, CV_MAKETYPE(CV_32S, channels), t.data_ptr()).convertTo(m, CV_MAKETYPE(CV_16U, channels));
+    cv::Mat(rows, cols, CV_MAKETYPE(CV_32S, channels), t.data_ptr())
+        .convertTo(m, CV_MAKETYPE(CV_16U, channels));
   } else {
     m = cv::Mat(rows, cols, CV_MAKETYPE(CV_8U, channels), t.data_ptr()).clone();
   }
@@ -118,7 +128,8 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
   std::vector<uchar> encoded;
   if (!cv::imencode(".png", m, encoded)) throw std::runtime_error(path + ": PNG encoding failed");
   write_file_atomically(path, [&](std::ostream& out) {
-    out.write(reinterpret_cast<const char*>(encoded.data()), static_cast<std::streamsize>(encoded.size()));
+    out.write(reinterpret_cast<const char*>(encoded.data()),
+              static_cast<std::streamsize>(encoded.size()));
   });
 }
 
@@ -126,15 +137,24 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
 
 namespace {
 [[noreturn]] void unavailable(const std::string& path) {
-  throw std::runtime_error(path + ": omnipoint was built without image I/O (OpenCV); "
+  throw std::runtime_error(path +
+                           ": omnipoint was built without image I/O (OpenCV); "
                            "reconfigure with -DOMNIPOINT_WITH_OPENCV=ON");
 }
 }  // namespace
 
-bool image_io_available() { return false; }
-at::Tensor read_image(const std::string& path) { unavailable(path); }
-at::Tensor read_image_values(const std::string& path) { unavailable(path); }
-void write_image_png(const std::string& path, const at::Tensor&, int) { unavailable(path); }
+bool image_io_available() {
+  return false;
+}
+at::Tensor read_image(const std::string& path) {
+  unavailable(path);
+}
+at::Tensor read_image_values(const std::string& path) {
+  unavailable(path);
+}
+void write_image_png(const std::string& path, const at::Tensor&, int) {
+  unavailable(path);
+}
 
 #endif
 

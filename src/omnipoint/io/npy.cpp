@@ -48,7 +48,10 @@ class HeaderParser {
     expect('{');
     while (true) {
       skip_space();
-      if (peek() == '}') { ++pos_; break; }
+      if (peek() == '}') {
+        ++pos_;
+        break;
+      }
       const std::string key = string_literal();
       expect(':');
       if (key == "descr") {
@@ -64,7 +67,10 @@ class HeaderParser {
         fail(name_, "unexpected header key '" + key + "'");
       }
       skip_space();
-      if (peek() == ',') { ++pos_; continue; }
+      if (peek() == ',') {
+        ++pos_;
+        continue;
+      }
       expect('}');
       break;
     }
@@ -97,8 +103,14 @@ class HeaderParser {
   }
   bool boolean() {
     skip_space();
-    if (s_.compare(pos_, 4, "True") == 0) { pos_ += 4; return true; }
-    if (s_.compare(pos_, 5, "False") == 0) { pos_ += 5; return false; }
+    if (s_.compare(pos_, 4, "True") == 0) {
+      pos_ += 4;
+      return true;
+    }
+    if (s_.compare(pos_, 5, "False") == 0) {
+      pos_ += 5;
+      return false;
+    }
     fail(name_, "malformed header, expected True or False");
   }
   std::vector<int64_t> tuple() {
@@ -106,7 +118,10 @@ class HeaderParser {
     expect('(');
     while (true) {
       skip_space();
-      if (peek() == ')') { ++pos_; break; }
+      if (peek() == ')') {
+        ++pos_;
+        break;
+      }
       if (!std::isdigit(static_cast<unsigned char>(peek()))) fail(name_, "malformed shape");
       int64_t value = 0;
       while (std::isdigit(static_cast<unsigned char>(peek()))) {
@@ -115,7 +130,10 @@ class HeaderParser {
       }
       dims.push_back(value);
       skip_space();
-      if (peek() == ',') { ++pos_; continue; }
+      if (peek() == ',') {
+        ++pos_;
+        continue;
+      }
       expect(')');
       break;
     }
@@ -162,11 +180,14 @@ at::Tensor parse_npy(const char* data, std::size_t size, const std::string& name
   at::ScalarType type = at::kFloat;
   bool known = false;
   for (const auto& d : kDtypes) {
-    if (header.descr == d.descr) { type = d.type; known = true; }
+    if (header.descr == d.descr) {
+      type = d.type;
+      known = true;
+    }
   }
   if (!known) {
-    fail(name, "unsupported dtype '" + header.descr +
-                   "' (expected <f4, <f8, |u1, |b1, <i4 or <i8)");
+    fail(name,
+         "unsupported dtype '" + header.descr + "' (expected <f4, <f8, |u1, |b1, <i4 or <i8)");
   }
 
   int64_t count = 1;
@@ -212,7 +233,8 @@ std::string encode_npy(const at::Tensor& tensor) {
   }
   std::ostringstream dict;
   dict << "{'descr': '" << descr << "', 'fortran_order': False, 'shape': (";
-  for (int64_t i = 0; i < t.dim(); ++i) dict << t.size(i) << (t.dim() == 1 || i + 1 < t.dim() ? ", " : "");
+  for (int64_t i = 0; i < t.dim(); ++i)
+    dict << t.size(i) << (t.dim() == 1 || i + 1 < t.dim() ? ", " : "");
   dict << "), }";
   std::string header = dict.str();
   // Pad with spaces so that data starts on a 64-byte boundary; the header ends in '\n'.

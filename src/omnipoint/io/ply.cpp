@@ -32,21 +32,29 @@ struct Property {
 
 std::size_t scalar_size(Scalar t) {
   switch (t) {
-    case Scalar::Int8: case Scalar::UInt8: return 1;
-    case Scalar::Int16: case Scalar::UInt16: return 2;
-    case Scalar::Int32: case Scalar::UInt32: case Scalar::Float32: return 4;
-    case Scalar::Float64: return 8;
+    case Scalar::Int8:
+    case Scalar::UInt8:
+      return 1;
+    case Scalar::Int16:
+    case Scalar::UInt16:
+      return 2;
+    case Scalar::Int32:
+    case Scalar::UInt32:
+    case Scalar::Float32:
+      return 4;
+    case Scalar::Float64:
+      return 8;
   }
   return 0;
 }
 
 bool parse_scalar_type(const std::string& s, Scalar& type) {
   static const std::pair<const char*, Scalar> names[] = {
-      {"char", Scalar::Int8},     {"int8", Scalar::Int8},       {"uchar", Scalar::UInt8},
-      {"uint8", Scalar::UInt8},   {"short", Scalar::Int16},     {"int16", Scalar::Int16},
-      {"ushort", Scalar::UInt16}, {"uint16", Scalar::UInt16},   {"int", Scalar::Int32},
-      {"int32", Scalar::Int32},   {"uint", Scalar::UInt32},     {"uint32", Scalar::UInt32},
-      {"float", Scalar::Float32}, {"float32", Scalar::Float32}, {"double", Scalar::Float64},
+      {"char", Scalar::Int8},      {"int8", Scalar::Int8},       {"uchar", Scalar::UInt8},
+      {"uint8", Scalar::UInt8},    {"short", Scalar::Int16},     {"int16", Scalar::Int16},
+      {"ushort", Scalar::UInt16},  {"uint16", Scalar::UInt16},   {"int", Scalar::Int32},
+      {"int32", Scalar::Int32},    {"uint", Scalar::UInt32},     {"uint32", Scalar::UInt32},
+      {"float", Scalar::Float32},  {"float32", Scalar::Float32}, {"double", Scalar::Float64},
       {"float64", Scalar::Float64}};
   for (const auto& [n, t] : names) {
     if (s == n) {
@@ -63,14 +71,22 @@ double load_binary(const char* p, Scalar t) {
     return static_cast<double>(v);
   };
   switch (t) {
-    case Scalar::Int8: return get(std::int8_t{});
-    case Scalar::UInt8: return get(std::uint8_t{});
-    case Scalar::Int16: return get(std::int16_t{});
-    case Scalar::UInt16: return get(std::uint16_t{});
-    case Scalar::Int32: return get(std::int32_t{});
-    case Scalar::UInt32: return get(std::uint32_t{});
-    case Scalar::Float32: return get(float{});
-    case Scalar::Float64: return get(double{});
+    case Scalar::Int8:
+      return get(std::int8_t{});
+    case Scalar::UInt8:
+      return get(std::uint8_t{});
+    case Scalar::Int16:
+      return get(std::int16_t{});
+    case Scalar::UInt16:
+      return get(std::uint16_t{});
+    case Scalar::Int32:
+      return get(std::int32_t{});
+    case Scalar::UInt32:
+      return get(std::uint32_t{});
+    case Scalar::Float32:
+      return get(float{});
+    case Scalar::Float64:
+      return get(double{});
   }
   return 0;
 }
@@ -93,7 +109,8 @@ Header parse_header(const std::string& bytes, const std::string& name) {
   bool have_format = false, in_vertex = false, seen_element = false;
   while (true) {
     const std::size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos || end > kMaxHeaderBytes) fail("no end_header line in the first 64 KiB");
+    if (end == std::string::npos || end > kMaxHeaderBytes)
+      fail("no end_header line in the first 64 KiB");
     std::string line = bytes.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
     pos = end + 1;
@@ -111,16 +128,20 @@ Header parse_header(const std::string& bytes, const std::string& name) {
       std::string format, version;
       words >> format >> version;
       if (version != "1.0") fail("format version '" + version + "' (expected 1.0)");
-      if (format == "ascii") h.binary = false;
-      else if (format == "binary_little_endian") h.binary = true;
-      else fail("format '" + format + "' (expected ascii or binary_little_endian)");
+      if (format == "ascii")
+        h.binary = false;
+      else if (format == "binary_little_endian")
+        h.binary = true;
+      else
+        fail("format '" + format + "' (expected ascii or binary_little_endian)");
       have_format = true;
     } else if (keyword == "element") {
       std::string element, count;
       words >> element >> count;
       if (!seen_element) {
         if (element != "vertex") fail("the first element is '" + element + "' (expected vertex)");
-        if (count.empty() || count.size() > 12 || count.find_first_not_of("0123456789") != std::string::npos) {
+        if (count.empty() || count.size() > 12 ||
+            count.find_first_not_of("0123456789") != std::string::npos) {
           fail("bad vertex count '" + count + "'");
         }
         h.count = std::stoll(count);
@@ -197,11 +218,14 @@ PlyPoints parse_ply(const std::string& bytes, const std::string& name) {
   if (ix < 0 || iy < 0 || iz < 0) {
     throw std::runtime_error(name + ": PLY vertex element lacks one of the properties x, y, z");
   }
-  const int ir = find_property(h, "red"), ig = find_property(h, "green"), ib = find_property(h, "blue");
+  const int ir = find_property(h, "red"), ig = find_property(h, "green"),
+            ib = find_property(h, "blue");
   const bool has_color = ir >= 0 || ig >= 0 || ib >= 0;
-  if (has_color && (ir < 0 || ig < 0 || ib < 0 || h.properties[ir].type != Scalar::UInt8 ||
-                    h.properties[ig].type != Scalar::UInt8 || h.properties[ib].type != Scalar::UInt8)) {
-    throw std::runtime_error(name + ": PLY colours must be the three uchar properties red, green, blue");
+  if (has_color &&
+      (ir < 0 || ig < 0 || ib < 0 || h.properties[ir].type != Scalar::UInt8 ||
+       h.properties[ig].type != Scalar::UInt8 || h.properties[ib].type != Scalar::UInt8)) {
+    throw std::runtime_error(name +
+                             ": PLY colours must be the three uchar properties red, green, blue");
   }
   const std::size_t available = bytes.size() - h.data_offset;
   const std::size_t num_props = h.properties.size();
@@ -233,8 +257,8 @@ PlyPoints parse_ply(const std::string& bytes, const std::string& name) {
         char* parsed_end = nullptr;
         values[k] = text.empty() ? 0.0 : std::strtod(text.c_str(), &parsed_end);
         if (text.empty() || parsed_end != text.c_str() + text.size()) {
-          throw std::runtime_error(name + ": PLY vertex " + std::to_string(i) + " has a bad or missing value '" +
-                                   text + "'");
+          throw std::runtime_error(name + ": PLY vertex " + std::to_string(i) +
+                                   " has a bad or missing value '" + text + "'");
         }
       }
     }
@@ -245,7 +269,8 @@ PlyPoints parse_ply(const std::string& bytes, const std::string& name) {
       for (int c = 0; c < 3; ++c) {
         const double v = values[c == 0 ? ir : c == 1 ? ig : ib];
         if (!(v >= 0 && v <= 255)) {
-          throw std::runtime_error(name + ": PLY vertex " + std::to_string(i) + " has a colour outside 0..255");
+          throw std::runtime_error(name + ": PLY vertex " + std::to_string(i) +
+                                   " has a colour outside 0..255");
         }
         rgb[3 * i + c] = static_cast<std::uint8_t>(v);
       }
@@ -254,6 +279,8 @@ PlyPoints parse_ply(const std::string& bytes, const std::string& name) {
   return {points, colors};
 }
 
-PlyPoints read_ply(const std::string& path) { return parse_ply(read_file(path), path); }
+PlyPoints read_ply(const std::string& path) {
+  return parse_ply(read_file(path), path);
+}
 
 }  // namespace omnipoint::io

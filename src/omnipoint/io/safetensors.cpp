@@ -17,14 +17,16 @@
 #include "omnipoint/io/mapped_file.h"
 
 // Tensor bytes are copied as they lie in memory; safetensors data is little-endian.
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "safetensors I/O assumes a little-endian host");
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "safetensors I/O assumes a little-endian host");
 
 namespace omnipoint::io {
 namespace {
 
 using nlohmann::json;
 
-constexpr std::uint64_t kMaxHeaderSize = 100u << 20;  // the reference implementation's cap is 100 MB
+constexpr std::uint64_t kMaxHeaderSize = 100u
+                                         << 20;  // the reference implementation's cap is 100 MB
 constexpr char kMetadataKey[] = "__metadata__";
 
 struct DtypeInfo {
@@ -34,9 +36,9 @@ struct DtypeInfo {
 // In increasing alignment, the order of the reference implementation's Dtype enum; the
 // writer lays data out from the last entry to the first, so every tensor starts aligned.
 constexpr DtypeInfo kDtypes[] = {
-    {"BOOL", at::kBool},     {"U8", at::kByte},      {"I8", at::kChar}, {"I16", at::kShort},
-    {"F16", at::kHalf},      {"BF16", at::kBFloat16}, {"I32", at::kInt}, {"F32", at::kFloat},
-    {"F64", at::kDouble},    {"I64", at::kLong},
+    {"BOOL", at::kBool},  {"U8", at::kByte},       {"I8", at::kChar}, {"I16", at::kShort},
+    {"F16", at::kHalf},   {"BF16", at::kBFloat16}, {"I32", at::kInt}, {"F32", at::kFloat},
+    {"F64", at::kDouble}, {"I64", at::kLong},
 };
 constexpr char kSupportedDtypes[] = "F64, F32, F16, BF16, I64, I32, I16, I8, U8, BOOL";
 
@@ -79,8 +81,7 @@ struct Entry {
 };
 
 std::uint64_t non_negative_integer(const json& value, bool& ok) {
-  ok = value.is_number_unsigned() ||
-       (value.is_number_integer() && value.get<std::int64_t>() >= 0);
+  ok = value.is_number_unsigned() || (value.is_number_integer() && value.get<std::int64_t>() >= 0);
   return ok ? value.get<std::uint64_t>() : 0;
 }
 
@@ -96,11 +97,12 @@ Entry parse_entry(const std::string& key, const json& value, const std::string& 
   entry.key = key;
 
   const auto dtype = value.find("dtype");
-  if (dtype == value.end() || !dtype->is_string()) fail(name, where + "missing string field 'dtype'");
+  if (dtype == value.end() || !dtype->is_string())
+    fail(name, where + "missing string field 'dtype'");
   entry.dtype = find_dtype(dtype->get<std::string>());
   if (entry.dtype == nullptr) {
-    fail(name, where + "unsupported dtype '" + dtype->get<std::string>() + "' (supported: " +
-                   kSupportedDtypes + ")");
+    fail(name, where + "unsupported dtype '" + dtype->get<std::string>() +
+                   "' (supported: " + kSupportedDtypes + ")");
   }
 
   const auto shape = value.find("shape");
@@ -153,10 +155,12 @@ void check_layout(std::vector<Entry>& entries, std::uint64_t data_size, const st
   for (const Entry& entry : entries) {
     if (entry.end > data_size) {
       fail(name, "tensor '" + entry.key + "': 'data_offsets' end at " + std::to_string(entry.end) +
-                     ", past the end of the data section (" + std::to_string(data_size) + " bytes)");
+                     ", past the end of the data section (" + std::to_string(data_size) +
+                     " bytes)");
     }
     if (entry.begin < position) {
-      fail(name, "tensors '" + previous->key + "' and '" + entry.key + "' overlap in the data section");
+      fail(name,
+           "tensors '" + previous->key + "' and '" + entry.key + "' overlap in the data section");
     }
     if (entry.begin > position) {
       fail(name, "bytes [" + std::to_string(position) + ", " + std::to_string(entry.begin) +
@@ -216,8 +220,8 @@ Prepared prepare(const std::map<std::string, at::Tensor>& tensors,
     const int rank = alignment_rank(t.scalar_type());
     if (rank < 0) {
       throw std::invalid_argument("cannot write safetensors: tensor '" + name + "' has dtype " +
-                                  c10::toString(t.scalar_type()) + " (supported: " +
-                                  kSupportedDtypes + ")");
+                                  c10::toString(t.scalar_type()) +
+                                  " (supported: " + kSupportedDtypes + ")");
     }
     items.push_back({&name, std::move(t), rank});
   }
@@ -269,7 +273,8 @@ std::string length_prefix(std::uint64_t n) {
 SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std::string& name) {
   if (size < 8) fail(name, "shorter than the 8-byte header length");
   std::uint64_t header_size = 0;
-  for (int i = 7; i >= 0; --i) header_size = (header_size << 8) | static_cast<unsigned char>(data[i]);
+  for (int i = 7; i >= 0; --i)
+    header_size = (header_size << 8) | static_cast<unsigned char>(data[i]);
   if (header_size > kMaxHeaderSize) {
     fail(name, "header length " + std::to_string(header_size) + " exceeds the 100 MiB cap");
   }
@@ -338,7 +343,8 @@ SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std:
   return out;
 }
 
-SafetensorsFile read_safetensors(const std::string& path, std::optional<at::ScalarType> convert_to) {
+SafetensorsFile read_safetensors(const std::string& path,
+                                 std::optional<at::ScalarType> convert_to) {
   if (convert_to && !is_stored_float(*convert_to)) {
     throw std::invalid_argument(std::string("read_safetensors: cannot convert to ") +
                                 c10::toString(*convert_to) + " (expected a floating-point type)");
@@ -364,7 +370,8 @@ std::string encode_safetensors(const std::map<std::string, at::Tensor>& tensors,
   out.reserve(8 + prepared.header.size() + prepared.data_size);
   out += prepared.header;
   for (const at::Tensor& t : prepared.tensors) {
-    if (t.numel() > 0) out.append(static_cast<const char*>(t.data_ptr()), t.numel() * t.element_size());
+    if (t.numel() > 0)
+      out.append(static_cast<const char*>(t.data_ptr()), t.numel() * t.element_size());
   }
   return out;
 }

@@ -55,10 +55,10 @@ ConditionEncoderImpl::ConditionEncoderImpl(int64_t in_channels, int64_t hidden_d
                                            int64_t embed_dim, int64_t patch_size) {
   patchify = register_module(
       "patchify",
-      torch::nn::Conv2d(torch::nn::Conv2dOptions(in_channels, hidden_dim, patch_size)
-                            .stride(patch_size)));
-  fuse = register_module("fuse", torch::nn::Conv2d(torch::nn::Conv2dOptions(hidden_dim,
-                                                                            embed_dim, 1)));
+      torch::nn::Conv2d(
+          torch::nn::Conv2dOptions(in_channels, hidden_dim, patch_size).stride(patch_size)));
+  fuse = register_module("fuse",
+                         torch::nn::Conv2d(torch::nn::Conv2dOptions(hidden_dim, embed_dim, 1)));
   torch::nn::init::zeros_(fuse->weight);
   torch::nn::init::zeros_(fuse->bias);
 }
@@ -76,15 +76,14 @@ at::Tensor sparse_depth_features(const at::Tensor& sparse_depth, int64_t height,
   const int64_t in_width = sparse_depth.size(2);
   // Grid pixel holding each input pixel centre: floor((i + 0.5) · h / H).
   const auto long_options = sparse_depth.options().dtype(at::kLong);
-  const at::Tensor rows = at::div((at::arange(in_height, long_options) * 2 + 1) * height,
-                                  2 * in_height, "floor");
-  const at::Tensor cols = at::div((at::arange(in_width, long_options) * 2 + 1) * width,
-                                  2 * in_width, "floor");
+  const at::Tensor rows =
+      at::div((at::arange(in_height, long_options) * 2 + 1) * height, 2 * in_height, "floor");
+  const at::Tensor cols =
+      at::div((at::arange(in_width, long_options) * 2 + 1) * width, 2 * in_width, "floor");
   const at::Tensor target = (rows.unsqueeze(1) * width + cols.unsqueeze(0)).flatten();
   const at::Tensor index = target.unsqueeze(0).expand({batch, target.size(0)});
 
-  const at::Tensor values =
-      at::where(valid, sparse_depth, at::zeros_like(sparse_depth)).flatten(1);
+  const at::Tensor values = at::where(valid, sparse_depth, at::zeros_like(sparse_depth)).flatten(1);
   const at::Tensor counts = valid.to(sparse_depth.scalar_type()).flatten(1);
   const at::Tensor grid_sum =
       at::zeros({batch, height * width}, sparse_depth.options()).scatter_add_(1, index, values);
@@ -106,15 +105,15 @@ at::Tensor sparse_depth_alignment_scale(const at::Tensor& predicted_distance,
                                         const at::Tensor& sparse_depth) {
   const at::Tensor valid = sparse_depth_valid(sparse_depth);
   if (predicted_distance.sizes() != sparse_depth.sizes()) {
-    throw std::invalid_argument("sparse depth alignment: the predicted distance (B,H,W) and the "
-                                "sparse depth must have the same shape");
+    throw std::invalid_argument(
+        "sparse depth alignment: the predicted distance (B,H,W) and the "
+        "sparse depth must have the same shape");
   }
   const at::Tensor usable = valid.logical_and(predicted_distance > 0).flatten(1);
   const at::Tensor x = predicted_distance.flatten(1);
   const at::Tensor y = at::where(usable, sparse_depth.flatten(1), at::ones_like(x));
   // Unusable samples sort last (ratio +inf) and weigh nothing.
-  const at::Tensor ratio =
-      at::where(usable, y / x.clamp_min(1e-12), at::full_like(x, INFINITY));
+  const at::Tensor ratio = at::where(usable, y / x.clamp_min(1e-12), at::full_like(x, INFINITY));
   const at::Tensor weight = at::where(usable, x / y, at::zeros_like(x));
   const auto [sorted_ratio, order] = ratio.sort(1);
   const at::Tensor cumulative = weight.gather(1, order).cumsum(1);

@@ -34,7 +34,7 @@ struct ConditioningConfig {
   int64_t splat_radius = 7;        // r, pixels of the ViT input grid
   double splat_sigma_per_depth = 3.0;  // sigma [px] of a sample at the mean depth (σ ∝ depth)
   double splat_min_sigma = 1.0;        // lower bound of sigma [px]
-  int64_t encoder_dim = 64;        // hidden channels of the condition encoders
+  int64_t encoder_dim = 64;            // hidden channels of the condition encoders
 };
 
 // Per-item presence (B,) bool of each condition, following the conventions above.

@@ -7,11 +7,11 @@
 // (fixtures README §1.5). Names equal MoGe-2's: input_blocks.l, res_blocks.l.k.layers.{2,5},
 // resamplers.l.{0,1}, output_blocks.l.
 #include <ATen/core/Tensor.h>
-#include <nlohmann/json_fwd.hpp>
 #include <torch/nn/module.h>
 #include <torch/nn/modules/container/modulelist.h>
 #include <torch/nn/modules/container/sequential.h>
 #include <torch/nn/pimpl.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
 #include <optional>
@@ -31,7 +31,8 @@ struct ConvStackConfig {
   // MoGe-2's ConvStack keywords. `dim_in`, `dim_out`, `num_res_blocks` and `resamplers` may
   // be one value for all levels, as in MoGe. Only norms "none" and activation "relu" (what
   // MoGe-2 uses) are supported; anything else is an std::invalid_argument naming it.
-  static ConvStackConfig from_json(const nlohmann::json& json, const std::string& name = "conv stack");
+  static ConvStackConfig from_json(const nlohmann::json& json,
+                                   const std::string& name = "conv stack");
 
   int64_t num_levels() const { return static_cast<int64_t>(dim_res_blocks.size()); }
   void validate(const std::string& name = "conv stack") const;

@@ -1,8 +1,8 @@
 #include "omnipoint/model/dinov2.h"
 
 #include <ATen/ATen.h>
-#include <nlohmann/json.hpp>
 #include <torch/nn/functional/upsampling.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -36,21 +36,36 @@ DinoV2Config DinoV2Config::from_json(const nlohmann::json& json) {
   DinoV2Config config;
   for (const auto& [key, value] : json.items()) {
     try {
-      if (key == "embed_dim") config.embed_dim = value.get<int64_t>();
-      else if (key == "depth") config.depth = value.get<int64_t>();
-      else if (key == "num_heads") config.num_heads = value.get<int64_t>();
-      else if (key == "mlp_ratio") config.mlp_ratio = value.get<double>();
-      else if (key == "img_size") config.img_size = value.get<int64_t>();
-      else if (key == "patch_size") config.patch_size = value.get<int64_t>();
-      else if (key == "ffn_layer") config.ffn_layer = value.get<std::string>();
-      else if (key == "init_values") config.init_values = value.is_null() ? 0.0 : value.get<double>();
-      else if (key == "num_register_tokens") config.num_register_tokens = value.get<int64_t>();
-      else if (key == "interpolate_offset") config.interpolate_offset = value.get<double>();
-      else if (key == "interpolate_antialias") config.interpolate_antialias = value.get<bool>();
-      else if (key == "qkv_bias") config.qkv_bias = value.get<bool>();
-      else if (key == "proj_bias") config.proj_bias = value.get<bool>();
-      else if (key == "ffn_bias") config.ffn_bias = value.get<bool>();
-      else if (key == "layer_norm_eps") config.layer_norm_eps = value.get<double>();
+      if (key == "embed_dim")
+        config.embed_dim = value.get<int64_t>();
+      else if (key == "depth")
+        config.depth = value.get<int64_t>();
+      else if (key == "num_heads")
+        config.num_heads = value.get<int64_t>();
+      else if (key == "mlp_ratio")
+        config.mlp_ratio = value.get<double>();
+      else if (key == "img_size")
+        config.img_size = value.get<int64_t>();
+      else if (key == "patch_size")
+        config.patch_size = value.get<int64_t>();
+      else if (key == "ffn_layer")
+        config.ffn_layer = value.get<std::string>();
+      else if (key == "init_values")
+        config.init_values = value.is_null() ? 0.0 : value.get<double>();
+      else if (key == "num_register_tokens")
+        config.num_register_tokens = value.get<int64_t>();
+      else if (key == "interpolate_offset")
+        config.interpolate_offset = value.get<double>();
+      else if (key == "interpolate_antialias")
+        config.interpolate_antialias = value.get<bool>();
+      else if (key == "qkv_bias")
+        config.qkv_bias = value.get<bool>();
+      else if (key == "proj_bias")
+        config.proj_bias = value.get<bool>();
+      else if (key == "ffn_bias")
+        config.ffn_bias = value.get<bool>();
+      else if (key == "layer_norm_eps")
+        config.layer_norm_eps = value.get<double>();
       else if (key == "act") {
         if (value.get<std::string>() != "gelu")
           throw std::invalid_argument("only act \"gelu\" is supported");
@@ -75,7 +90,8 @@ void DinoV2Config::validate() const {
   auto fail = [](const std::string& what) {
     throw std::invalid_argument("DINOv2 config: " + what);
   };
-  if (embed_dim <= 0 || depth <= 0 || num_heads <= 0) fail("embed_dim, depth, num_heads must be > 0");
+  if (embed_dim <= 0 || depth <= 0 || num_heads <= 0)
+    fail("embed_dim, depth, num_heads must be > 0");
   if (embed_dim % num_heads != 0) fail("embed_dim must be a multiple of num_heads");
   if (patch_size <= 0 || img_size < patch_size) fail("need 0 < patch_size <= img_size");
   if (mlp_ratio <= 0) fail("mlp_ratio must be > 0");
@@ -90,15 +106,18 @@ LayerScaleImpl::LayerScaleImpl(int64_t dim, double init_values) {
 
 AttentionImpl::AttentionImpl(int64_t dim, int64_t num_heads, bool qkv_bias, bool proj_bias)
     : num_heads_(num_heads) {
-  qkv = register_module("qkv", torch::nn::Linear(torch::nn::LinearOptions(dim, 3 * dim).bias(qkv_bias)));
-  proj = register_module("proj", torch::nn::Linear(torch::nn::LinearOptions(dim, dim).bias(proj_bias)));
+  qkv = register_module("qkv",
+                        torch::nn::Linear(torch::nn::LinearOptions(dim, 3 * dim).bias(qkv_bias)));
+  proj = register_module("proj",
+                         torch::nn::Linear(torch::nn::LinearOptions(dim, dim).bias(proj_bias)));
 }
 
 at::Tensor AttentionImpl::forward(const at::Tensor& x) {
   const int64_t batch = x.size(0), tokens = x.size(1), dim = x.size(2);
   const int64_t head_dim = dim / num_heads_;
   // qkv channels are [q | k | v], heads contiguous inside each: (B,N,3,heads,hd).
-  const at::Tensor qkv_heads = qkv(x).view({batch, tokens, 3, num_heads_, head_dim}).permute({2, 0, 3, 1, 4});
+  const at::Tensor qkv_heads =
+      qkv(x).view({batch, tokens, 3, num_heads_, head_dim}).permute({2, 0, 3, 1, 4});
   // (B·heads, N, hd); the 1/sqrt(hd) scale is folded into q (one N·hd multiply, not N²).
   const at::Tensor q = (qkv_heads[0] * (1.0 / std::sqrt(static_cast<double>(head_dim))))
                            .reshape({batch * num_heads_, tokens, head_dim});
@@ -112,24 +131,33 @@ at::Tensor AttentionImpl::forward(const at::Tensor& x) {
   std::vector<at::Tensor> groups;
   for (int64_t start = 0; start < batch_heads; start += group) {
     const int64_t size = std::min(group, batch_heads - start);
-    const at::Tensor scores = at::bmm(q.narrow(0, start, size), k.narrow(0, start, size).transpose(1, 2));
+    const at::Tensor scores =
+        at::bmm(q.narrow(0, start, size), k.narrow(0, start, size).transpose(1, 2));
     groups.push_back(at::bmm(at::softmax(scores, -1), v.narrow(0, start, size)));
   }
   const at::Tensor heads = groups.size() == 1 ? groups[0] : at::cat(groups, 0);  // (B·heads, N, hd)
-  return proj(heads.view({batch, num_heads_, tokens, head_dim}).transpose(1, 2).reshape({batch, tokens, dim}));
+  return proj(heads.view({batch, num_heads_, tokens, head_dim})
+                  .transpose(1, 2)
+                  .reshape({batch, tokens, dim}));
 }
 
 FeedForwardImpl::FeedForwardImpl(const DinoV2Config& config) {
   const int64_t dim = config.embed_dim;
   const auto hidden = static_cast<int64_t>(static_cast<double>(dim) * config.mlp_ratio);
   if (config.ffn_layer == "mlp") {
-    fc1 = register_module("fc1", torch::nn::Linear(torch::nn::LinearOptions(dim, hidden).bias(config.ffn_bias)));
-    fc2 = register_module("fc2", torch::nn::Linear(torch::nn::LinearOptions(hidden, dim).bias(config.ffn_bias)));
+    fc1 = register_module(
+        "fc1", torch::nn::Linear(torch::nn::LinearOptions(dim, hidden).bias(config.ffn_bias)));
+    fc2 = register_module(
+        "fc2", torch::nn::Linear(torch::nn::LinearOptions(hidden, dim).bias(config.ffn_bias)));
   } else {
     // DINOv2's SwiGLUFFNFused: hidden = 2/3 of the MLP width, rounded up to a multiple of 8.
     const int64_t swiglu_hidden = (hidden * 2 / 3 + 7) / 8 * 8;
-    w12 = register_module("w12", torch::nn::Linear(torch::nn::LinearOptions(dim, 2 * swiglu_hidden).bias(config.ffn_bias)));
-    w3 = register_module("w3", torch::nn::Linear(torch::nn::LinearOptions(swiglu_hidden, dim).bias(config.ffn_bias)));
+    w12 = register_module(
+        "w12",
+        torch::nn::Linear(torch::nn::LinearOptions(dim, 2 * swiglu_hidden).bias(config.ffn_bias)));
+    w3 = register_module(
+        "w3",
+        torch::nn::Linear(torch::nn::LinearOptions(swiglu_hidden, dim).bias(config.ffn_bias)));
   }
 }
 
@@ -143,7 +171,8 @@ BlockImpl::BlockImpl(const DinoV2Config& config) {
   const int64_t dim = config.embed_dim;
   const auto norm_options = torch::nn::LayerNormOptions({dim}).eps(config.layer_norm_eps);
   norm1 = register_module("norm1", torch::nn::LayerNorm(norm_options));
-  attn = register_module("attn", Attention(dim, config.num_heads, config.qkv_bias, config.proj_bias));
+  attn =
+      register_module("attn", Attention(dim, config.num_heads, config.qkv_bias, config.proj_bias));
   if (config.init_values > 0) ls1 = register_module("ls1", LayerScale(dim, config.init_values));
   norm2 = register_module("norm2", torch::nn::LayerNorm(norm_options));
   mlp = register_module("mlp", FeedForward(config));
@@ -160,7 +189,8 @@ at::Tensor BlockImpl::forward(const at::Tensor& x) {
 
 PatchEmbedImpl::PatchEmbedImpl(int64_t patch_size, int64_t embed_dim) {
   proj = register_module(
-      "proj", torch::nn::Conv2d(torch::nn::Conv2dOptions(3, embed_dim, patch_size).stride(patch_size)));
+      "proj",
+      torch::nn::Conv2d(torch::nn::Conv2dOptions(3, embed_dim, patch_size).stride(patch_size)));
 }
 
 DinoV2Impl::DinoV2Impl(const DinoV2Config& config) : config_(config) {
@@ -171,11 +201,13 @@ DinoV2Impl::DinoV2Impl(const DinoV2Config& config) : config_(config) {
   cls_token = register_parameter("cls_token", at::zeros({1, 1, dim}));
   pos_embed = register_parameter("pos_embed", at::zeros({1, 1 + grid * grid, dim}));
   if (config_.num_register_tokens > 0)
-    register_tokens = register_parameter("register_tokens", at::zeros({1, config_.num_register_tokens, dim}));
+    register_tokens =
+        register_parameter("register_tokens", at::zeros({1, config_.num_register_tokens, dim}));
   mask_token = register_parameter("mask_token", at::zeros({1, dim}));
   blocks = register_module("blocks", torch::nn::ModuleList());
   for (int64_t i = 0; i < config_.depth; ++i) blocks->push_back(Block(config_));
-  norm = register_module("norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({dim}).eps(config_.layer_norm_eps)));
+  norm = register_module(
+      "norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({dim}).eps(config_.layer_norm_eps)));
 }
 
 at::Tensor DinoV2Impl::position_embedding(int64_t rows, int64_t cols) const {
@@ -183,15 +215,20 @@ at::Tensor DinoV2Impl::position_embedding(int64_t rows, int64_t cols) const {
   if (rows == grid && cols == grid) return pos_embed;
   const int64_t dim = config_.embed_dim;
   const at::Tensor table = pos_embed.to(at::kFloat);
-  const at::Tensor patch_grid = table.narrow(1, 1, grid * grid).reshape({1, grid, grid, dim}).permute({0, 3, 1, 2});
-  auto options = F::InterpolateFuncOptions().mode(torch::kBicubic).align_corners(false).antialias(
-      config_.interpolate_antialias);
+  const at::Tensor patch_grid =
+      table.narrow(1, 1, grid * grid).reshape({1, grid, grid, dim}).permute({0, 3, 1, 2});
+  auto options = F::InterpolateFuncOptions()
+                     .mode(torch::kBicubic)
+                     .align_corners(false)
+                     .antialias(config_.interpolate_antialias);
   if (config_.interpolate_offset != 0) {
     // DINOv2 passes scale factors, and the kernel samples at (i + 0.5) / s - 0.5 with them;
     // resizing to the size instead samples elsewhere (off by up to 2 on the fixture).
     // (recompute_scale_factor false = PyTorch's default behaviour, stated to silence its warning.)
-    options.scale_factor(std::vector<double>{(static_cast<double>(rows) + config_.interpolate_offset) / grid,
-                                             (static_cast<double>(cols) + config_.interpolate_offset) / grid})
+    options
+        .scale_factor(
+            std::vector<double>{(static_cast<double>(rows) + config_.interpolate_offset) / grid,
+                                (static_cast<double>(cols) + config_.interpolate_offset) / grid})
         .recompute_scale_factor(false);
   } else {
     options.size(std::vector<int64_t>{rows, cols});
@@ -205,26 +242,31 @@ at::Tensor DinoV2Impl::position_embedding(int64_t rows, int64_t cols) const {
 
 at::Tensor DinoV2Impl::prepare_tokens(const at::Tensor& image) {
   const int64_t patch = config_.patch_size;
-  if (image.dim() != 4 || image.size(1) != 3 || image.size(2) % patch != 0 || image.size(3) % patch != 0) {
+  if (image.dim() != 4 || image.size(1) != 3 || image.size(2) % patch != 0 ||
+      image.size(3) % patch != 0) {
     throw std::invalid_argument("DINOv2 input must be (B,3,H,W) with H and W multiples of " +
                                 std::to_string(patch) + ", got " + c10::str(image.sizes()));
   }
   const int64_t batch = image.size(0), rows = image.size(2) / patch, cols = image.size(3) / patch;
-  const at::Tensor patches = patch_embed->forward(image).flatten(2).transpose(1, 2);  // (B, rows·cols, C)
+  const at::Tensor patches =
+      patch_embed->forward(image).flatten(2).transpose(1, 2);  // (B, rows·cols, C)
   at::Tensor tokens = at::cat({cls_token.expand({batch, 1, config_.embed_dim}), patches}, 1);
   tokens = tokens + position_embedding(rows, cols);
   if (register_tokens.defined()) {
     tokens = at::cat({tokens.narrow(1, 0, 1), register_tokens.expand({batch, -1, -1}),
-                      tokens.narrow(1, 1, rows * cols)}, 1);
+                      tokens.narrow(1, 1, rows * cols)},
+                     1);
   }
   return tokens;
 }
 
-std::vector<DinoV2Layer> DinoV2Impl::intermediate_layers(at::Tensor tokens, const std::vector<int64_t>& layers) {
+std::vector<DinoV2Layer> DinoV2Impl::intermediate_layers(at::Tensor tokens,
+                                                         const std::vector<int64_t>& layers) {
   for (size_t i = 0; i < layers.size(); ++i) {
     if (layers[i] < 0 || layers[i] >= config_.depth || (i > 0 && layers[i] <= layers[i - 1])) {
-      throw std::invalid_argument("DINOv2 intermediate layers must be increasing block indices in [0, " +
-                                  std::to_string(config_.depth) + ")");
+      throw std::invalid_argument(
+          "DINOv2 intermediate layers must be increasing block indices in [0, " +
+          std::to_string(config_.depth) + ")");
     }
   }
   std::vector<DinoV2Layer> outputs;
@@ -240,7 +282,8 @@ std::vector<DinoV2Layer> DinoV2Impl::intermediate_layers(at::Tensor tokens, cons
   return outputs;
 }
 
-std::vector<DinoV2Layer> DinoV2Impl::forward(const at::Tensor& image, const std::vector<int64_t>& layers) {
+std::vector<DinoV2Layer> DinoV2Impl::forward(const at::Tensor& image,
+                                             const std::vector<int64_t>& layers) {
   return intermediate_layers(prepare_tokens(image), layers);
 }
 

@@ -13,13 +13,13 @@
 // square grid (img_size / patch_size)² and is resized bicubically to the actual grid the
 // way DINOv2 does it (scale factors (rows + offset) / grid, not sizes; fixtures README §1.3).
 #include <ATen/core/Tensor.h>
-#include <nlohmann/json_fwd.hpp>
 #include <torch/nn/module.h>
 #include <torch/nn/modules/container/modulelist.h>
 #include <torch/nn/modules/conv.h>
 #include <torch/nn/modules/linear.h>
 #include <torch/nn/modules/normalization.h>
 #include <torch/nn/pimpl.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
 #include <string>
@@ -51,7 +51,7 @@ struct DinoV2Config {
 
   int64_t head_dim() const { return embed_dim / num_heads; }
   int64_t grid_size() const { return img_size / patch_size; }  // side of the pos-embed grid
-  void validate() const;                                      // std::invalid_argument if bad
+  void validate() const;                                       // std::invalid_argument if bad
 };
 
 // The patch tokens and the class token of one block's output, after the final LayerNorm.

@@ -13,11 +13,11 @@
 // Names follow MoGe's v2.py: encoder.{image_mean,image_std,backbone,output_projections},
 // neck, points_head, mask_head, normal_head, scale_head. Details: fixtures README §0–1.
 #include <ATen/core/Tensor.h>
-#include <nlohmann/json_fwd.hpp>
 #include <torch/nn/module.h>
 #include <torch/nn/modules/container/modulelist.h>
 #include <torch/nn/modules/container/sequential.h>
 #include <torch/nn/pimpl.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include <array>
 #include <cstdint>
@@ -32,8 +32,8 @@
 namespace omnipoint::model {
 
 struct MoGe2EncoderConfig {
-  std::string backbone = "dinov2_vitl14";  // a hub name or "dinov2_custom"
-  DinoV2Config backbone_config;            // resolved from the name, or MoGe's backbone_config
+  std::string backbone = "dinov2_vitl14";    // a hub name or "dinov2_custom"
+  DinoV2Config backbone_config;              // resolved from the name, or MoGe's backbone_config
   std::vector<int64_t> intermediate_layers;  // block indices (an int n in JSON: the last n)
   int64_t dim_out = 1024;
 
@@ -104,11 +104,11 @@ TORCH_MODULE(MoGe2Encoder);
 
 // Head maps at 16·(rows, cols), before resizing and remapping.
 struct MoGe2RawOutput {
-  at::Tensor points;          // (B,3,h,w)
-  at::Tensor mask;            // (B,1,h,w) logits, undefined without a mask head
-  at::Tensor normal;          // (B,3,h,w), undefined without a normal head
-  at::Tensor log_scale;       // (B), undefined without a scale head
-  at::Tensor projected;       // (B,dim_out,rows,cols): the encoder's features
+  at::Tensor points;     // (B,3,h,w)
+  at::Tensor mask;       // (B,1,h,w) logits, undefined without a mask head
+  at::Tensor normal;     // (B,3,h,w), undefined without a normal head
+  at::Tensor log_scale;  // (B), undefined without a scale head
+  at::Tensor projected;  // (B,dim_out,rows,cols): the encoder's features
 };
 
 struct MoGe2Output {

@@ -16,7 +16,8 @@ MoGe2Inference postprocess(const MoGe2Output& output, const MoGe2InferOptions& o
   MoGe2Inference result;
 
   at::Tensor mask = output.mask.defined() ? output.mask > 0.5 : at::Tensor();
-  const geometry::FocalShift camera = geometry::recover_focal_shift(affine, mask, options.focal_shift);
+  const geometry::FocalShift camera =
+      geometry::recover_focal_shift(affine, mask, options.focal_shift);
   result.intrinsics = geometry::intrinsics_from_focal(camera.focal, aspect);
 
   const at::Tensor depth = affine.select(3, 2) + camera.shift.view({-1, 1, 1});

@@ -52,7 +52,8 @@ nlohmann::json encoder_json(const MoGe2EncoderConfig& config) {
   nlohmann::json json = {{"backbone", config.backbone},
                          {"intermediate_layers", config.intermediate_layers},
                          {"dim_out", config.dim_out}};
-  if (config.backbone == "dinov2_custom") json["backbone_config"] = backbone_json(config.backbone_config);
+  if (config.backbone == "dinov2_custom")
+    json["backbone_config"] = backbone_json(config.backbone_config);
   return json;
 }
 
@@ -68,30 +69,43 @@ nlohmann::json conditioning_json(const ConditioningConfig& config) {
 }
 
 ConditioningConfig conditioning_from_json(const nlohmann::json& json) {
-  if (!json.is_object()) throw std::invalid_argument("OmniPoint config: 'conditioning' must be an object");
+  if (!json.is_object())
+    throw std::invalid_argument("OmniPoint config: 'conditioning' must be an object");
   ConditioningConfig config;
   for (const auto& [key, value] : json.items()) {
-    if (key == "intrinsics") config.intrinsics = value.get<bool>();
-    else if (key == "sparse_depth") config.sparse_depth = value.get<bool>();
-    else if (key == "state_embeddings") config.state_embeddings = value.get<bool>();
-    else if (key == "gaussian_smoothing") config.gaussian_smoothing = value.get<bool>();
-    else if (key == "splat_radius") config.splat_radius = value.get<int64_t>();
-    else if (key == "splat_sigma_per_depth") config.splat_sigma_per_depth = value.get<double>();
-    else if (key == "splat_min_sigma") config.splat_min_sigma = value.get<double>();
-    else if (key == "encoder_dim") config.encoder_dim = value.get<int64_t>();
-    else throw std::invalid_argument("OmniPoint config: unknown conditioning key '" + key + "'");
+    if (key == "intrinsics")
+      config.intrinsics = value.get<bool>();
+    else if (key == "sparse_depth")
+      config.sparse_depth = value.get<bool>();
+    else if (key == "state_embeddings")
+      config.state_embeddings = value.get<bool>();
+    else if (key == "gaussian_smoothing")
+      config.gaussian_smoothing = value.get<bool>();
+    else if (key == "splat_radius")
+      config.splat_radius = value.get<int64_t>();
+    else if (key == "splat_sigma_per_depth")
+      config.splat_sigma_per_depth = value.get<double>();
+    else if (key == "splat_min_sigma")
+      config.splat_min_sigma = value.get<double>();
+    else if (key == "encoder_dim")
+      config.encoder_dim = value.get<int64_t>();
+    else
+      throw std::invalid_argument("OmniPoint config: unknown conditioning key '" + key + "'");
   }
   return config;
 }
 
-int64_t last_dim_out(const ConvStackConfig& head) { return head.dim_out.back().value_or(0); }
+int64_t last_dim_out(const ConvStackConfig& head) {
+  return head.dim_out.back().value_or(0);
+}
 
 }  // namespace
 
 OmniPointConfig OmniPointConfig::from_json(const nlohmann::json& json) {
   if (!json.is_object()) throw std::invalid_argument("OmniPoint config must be a JSON object");
-  static const char* const kKeys[] = {"encoder", "neck", "ray_head", "distance_head", "points_head", "mask_head",
-                                      "scale_head", "output", "conditioning", "num_tokens_range"};
+  static const char* const kKeys[] = {
+      "encoder",   "neck",       "ray_head", "distance_head", "points_head",
+      "mask_head", "scale_head", "output",   "conditioning",  "num_tokens_range"};
   for (const auto& [key, value] : json.items()) {
     if (std::find(std::begin(kKeys), std::end(kKeys), key) == std::end(kKeys))
       throw std::invalid_argument("OmniPoint config: unknown key '" + key + "'");
@@ -99,27 +113,36 @@ OmniPointConfig OmniPointConfig::from_json(const nlohmann::json& json) {
   OmniPointConfig config;
   try {
     const std::string output = json.value("output", "ray_distance");
-    if (output == "ray_distance") config.output = OutputKind::kRayDistance;
-    else if (output == "xyz") config.output = OutputKind::kXyz;
-    else throw std::invalid_argument("OmniPoint config: output '" + output + "' is not ray_distance or xyz");
+    if (output == "ray_distance")
+      config.output = OutputKind::kRayDistance;
+    else if (output == "xyz")
+      config.output = OutputKind::kXyz;
+    else
+      throw std::invalid_argument("OmniPoint config: output '" + output +
+                                  "' is not ray_distance or xyz");
     config.encoder = MoGe2EncoderConfig::from_json(json.at("encoder"));
     config.neck = ConvStackConfig::from_json(json.at("neck"), "OmniPoint neck");
     if (config.output == OutputKind::kRayDistance) {
       config.ray_head = ConvStackConfig::from_json(json.at("ray_head"), "OmniPoint ray_head");
-      config.distance_head = ConvStackConfig::from_json(json.at("distance_head"), "OmniPoint distance_head");
+      config.distance_head =
+          ConvStackConfig::from_json(json.at("distance_head"), "OmniPoint distance_head");
     } else {
-      config.points_head = ConvStackConfig::from_json(json.at("points_head"), "OmniPoint points_head");
+      config.points_head =
+          ConvStackConfig::from_json(json.at("points_head"), "OmniPoint points_head");
     }
     config.mask_head = ConvStackConfig::from_json(json.at("mask_head"), "OmniPoint mask_head");
     config.scale_head_dims = json.at("scale_head").at("dims").get<std::vector<int64_t>>();
-    if (json.contains("conditioning")) config.conditioning = conditioning_from_json(json["conditioning"]);
+    if (json.contains("conditioning"))
+      config.conditioning = conditioning_from_json(json["conditioning"]);
     if (json.contains("num_tokens_range")) {
       const auto range = json["num_tokens_range"].get<std::vector<int64_t>>();
-      if (range.size() != 2) throw std::invalid_argument("OmniPoint config: num_tokens_range must be [min, max]");
+      if (range.size() != 2)
+        throw std::invalid_argument("OmniPoint config: num_tokens_range must be [min, max]");
       config.num_tokens_range = {range[0], range[1]};
     }
   } catch (const nlohmann::json::exception& e) {
-    throw std::invalid_argument(std::string("OmniPoint config: missing or mistyped entry (") + e.what() + ")");
+    throw std::invalid_argument(std::string("OmniPoint config: missing or mistyped entry (") +
+                                e.what() + ")");
   }
   config.validate();
   return config;
@@ -153,18 +176,26 @@ nlohmann::json OmniPointConfig::to_json() const {
   return json;
 }
 
-std::string OmniPointConfig::to_json_text() const { return to_json().dump(); }
+std::string OmniPointConfig::to_json_text() const {
+  return to_json().dump();
+}
 
 void OmniPointConfig::validate() const {
-  const auto fail = [](const std::string& what) { throw std::invalid_argument("OmniPoint config: " + what); };
+  const auto fail = [](const std::string& what) {
+    throw std::invalid_argument("OmniPoint config: " + what);
+  };
   if (!neck.dim_in[0] || *neck.dim_in[0] != encoder.dim_out + 2)
     fail("neck.dim_in[0] must be encoder.dim_out + 2 (features and uv)");
   for (int64_t level = 1; level < neck.num_levels(); ++level) {
-    if (neck.dim_in[level] && *neck.dim_in[level] != 2) fail("neck levels above 0 take the uv map (dim_in 2)");
+    if (neck.dim_in[level] && *neck.dim_in[level] != 2)
+      fail("neck levels above 0 take the uv map (dim_in 2)");
   }
-  const auto check_head = [&](const ConvStackConfig& head, const std::string& name, int64_t channels) {
-    if (head.num_levels() != neck.num_levels()) fail(name + " must have as many levels as the neck");
-    if (last_dim_out(head) != channels) fail(name + " must output " + std::to_string(channels) + " channel(s)");
+  const auto check_head = [&](const ConvStackConfig& head, const std::string& name,
+                              int64_t channels) {
+    if (head.num_levels() != neck.num_levels())
+      fail(name + " must have as many levels as the neck");
+    if (last_dim_out(head) != channels)
+      fail(name + " must output " + std::to_string(channels) + " channel(s)");
     for (int64_t level = 0; level < head.num_levels(); ++level) {
       const int64_t neck_out = neck.dim_out[level].value_or(neck.dim_res_blocks[level]);
       if (head.dim_in[level] && *head.dim_in[level] != neck_out)
@@ -192,10 +223,12 @@ void OmniPointConfig::validate() const {
 OmniPointConfig OmniPointConfig::from_moge2(const MoGe2Config& moge2, OutputKind output,
                                             const ConditioningConfig& conditioning) {
   if (!moge2.mask_head || moge2.scale_head_dims.empty())
-    throw std::invalid_argument("MoGe-2 config: an OmniPoint model needs its mask_head and scale_head");
+    throw std::invalid_argument(
+        "MoGe-2 config: an OmniPoint model needs its mask_head and scale_head");
   if (moge2.remap_output != "exp")
-    throw std::invalid_argument("MoGe-2 config: OmniPoint heads follow remap_output \"exp\", got \"" +
-                                moge2.remap_output + "\"");
+    throw std::invalid_argument(
+        "MoGe-2 config: OmniPoint heads follow remap_output \"exp\", got \"" + moge2.remap_output +
+        "\"");
   OmniPointConfig config;
   config.encoder = moge2.encoder;
   config.neck = moge2.neck;
@@ -224,7 +257,8 @@ OmniPointConfig config_from_metadata(const std::map<std::string, std::string>& m
   if (format == metadata.end() || format->second != "omnipoint")
     throw std::invalid_argument("weights metadata: expected \"format\": \"omnipoint\"");
   const auto config = metadata.find("config");
-  if (config == metadata.end()) throw std::invalid_argument("weights metadata: no \"config\" entry");
+  if (config == metadata.end())
+    throw std::invalid_argument("weights metadata: no \"config\" entry");
   return OmniPointConfig::from_json_text(config->second);
 }
 

@@ -16,18 +16,23 @@ namespace F = torch::nn::functional;
 void check_inputs(const OmniPointInputs& inputs) {
   const at::Tensor& image = inputs.image;
   if (!image.defined() || image.dim() != 4 || image.size(1) != 3 || !image.is_floating_point())
-    throw std::invalid_argument("OmniPoint input image: expected a floating-point (B,3,H,W) tensor");
+    throw std::invalid_argument(
+        "OmniPoint input image: expected a floating-point (B,3,H,W) tensor");
   const int64_t batch = image.size(0);
   if (inputs.rays.defined() && (inputs.rays.dim() != 4 || inputs.rays.size(0) != batch))
-    throw std::invalid_argument("OmniPoint ray map: expected (B,3,H,W) with the image's batch size " +
-                                std::to_string(batch));
-  if (inputs.sparse_depth.defined() && (inputs.sparse_depth.dim() != 3 || inputs.sparse_depth.size(0) != batch))
-    throw std::invalid_argument("OmniPoint sparse depth: expected (B,H,W) with the image's batch size " +
-                                std::to_string(batch));
+    throw std::invalid_argument(
+        "OmniPoint ray map: expected (B,3,H,W) with the image's batch size " +
+        std::to_string(batch));
+  if (inputs.sparse_depth.defined() &&
+      (inputs.sparse_depth.dim() != 3 || inputs.sparse_depth.size(0) != batch))
+    throw std::invalid_argument(
+        "OmniPoint sparse depth: expected (B,H,W) with the image's batch size " +
+        std::to_string(batch));
 }
 
 // (B,C,h,w) head output at the image size, channels last.
-at::Tensor head_map(ConvStack& head, const std::vector<at::Tensor>& neck_levels, int64_t height, int64_t width) {
+at::Tensor head_map(ConvStack& head, const std::vector<at::Tensor>& neck_levels, int64_t height,
+                    int64_t width) {
   return resize_to_image(head->forward(neck_levels).back(), height, width).permute({0, 2, 3, 1});
 }
 
@@ -54,26 +59,29 @@ OmniPointModelImpl::OmniPointModelImpl(const OmniPointConfig& config) : config_(
   const DinoV2Config& vit = config_.encoder.backbone_config;
   if (conditioning.intrinsics) {
     intrinsics_encoder = register_module(
-        "intrinsics_encoder", ConditionEncoder(3, conditioning.encoder_dim, vit.embed_dim, vit.patch_size));
+        "intrinsics_encoder",
+        ConditionEncoder(3, conditioning.encoder_dim, vit.embed_dim, vit.patch_size));
     if (conditioning.state_embeddings)
       intrinsics_state = register_module("intrinsics_state", make_state_embedding(vit.embed_dim));
   }
   if (conditioning.sparse_depth) {
     sparse_depth_encoder = register_module(
-        "sparse_depth_encoder", ConditionEncoder(2, conditioning.encoder_dim, vit.embed_dim, vit.patch_size));
+        "sparse_depth_encoder",
+        ConditionEncoder(2, conditioning.encoder_dim, vit.embed_dim, vit.patch_size));
     if (conditioning.state_embeddings)
       depth_state = register_module("depth_state", make_state_embedding(vit.embed_dim));
   }
 }
 
 bool is_conditioning_tensor(const std::string& name) {
-  for (const char* branch : {"intrinsics_encoder.", "intrinsics_state.", "sparse_depth_encoder.", "depth_state."})
+  for (const char* branch :
+       {"intrinsics_encoder.", "intrinsics_state.", "sparse_depth_encoder.", "depth_state."})
     if (name.rfind(branch, 0) == 0) return true;
   return false;
 }
 
-OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const OmniPointInputs& inputs,
-                                                                           const TokenGrid& grid) {
+OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(
+    const OmniPointInputs& inputs, const TokenGrid& grid) {
   check_inputs(inputs);
   const at::Tensor& image = inputs.image;
   const int64_t batch = image.size(0);
@@ -82,7 +90,8 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
   if (inputs.rays.defined() && !intrinsics_encoder)
     throw std::invalid_argument("OmniPoint ray map given, but this model has no intrinsics branch");
   if (inputs.sparse_depth.defined() && !sparse_depth_encoder)
-    throw std::invalid_argument("OmniPoint sparse depth given, but this model has no sparse-depth branch");
+    throw std::invalid_argument(
+        "OmniPoint sparse depth given, but this model has no sparse-depth branch");
 
   TokenConditioning result;
   const at::Tensor none = at::zeros({batch}, image.options().dtype(at::kBool));
@@ -93,7 +102,8 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
   // Patch-token offsets: each branch's encoding where its condition is present, zero elsewhere.
   at::Tensor patch_offset;
   const auto add_where_present = [&](const at::Tensor& encoding, const at::Tensor& present) {
-    const at::Tensor masked = at::where(present.view({batch, 1, 1}), encoding, at::zeros_like(encoding));
+    const at::Tensor masked =
+        at::where(present.view({batch, 1, 1}), encoding, at::zeros_like(encoding));
     patch_offset = patch_offset.defined() ? patch_offset + masked : masked;
   };
   if (inputs.rays.defined()) {
@@ -106,8 +116,8 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
     add_where_present(intrinsics_encoder->forward(rays), result.intrinsics_present);
   }
   if (inputs.sparse_depth.defined()) {
-    const at::Tensor features = sparse_depth_features(inputs.sparse_depth.to(image.options()), vit_height,
-                                                      vit_width, config_.conditioning);
+    const at::Tensor features = sparse_depth_features(inputs.sparse_depth.to(image.options()),
+                                                      vit_height, vit_width, config_.conditioning);
     add_where_present(sparse_depth_encoder->forward(features), result.sparse_depth_present);
   }
 
@@ -122,7 +132,8 @@ OmniPointModelImpl::TokenConditioning OmniPointModelImpl::condition_tokens(const
   if (!patch_offset.defined() && !state_offset.defined()) return result;  // exactly MoGe-2's tokens
   const int64_t prefix = encoder->backbone->num_prefix_tokens();
   const int64_t dim = config_.encoder.backbone_config.embed_dim;
-  if (!patch_offset.defined()) patch_offset = at::zeros({batch, grid.rows * grid.cols, dim}, image.options());
+  if (!patch_offset.defined())
+    patch_offset = at::zeros({batch, grid.rows * grid.cols, dim}, image.options());
   at::Tensor offset = at::cat({at::zeros({batch, prefix, dim}, image.options()), patch_offset}, 1);
   result.offset = state_offset.defined() ? offset + state_offset : offset;
   return result;
@@ -133,15 +144,16 @@ EncoderOutput OmniPointModelImpl::encode(const OmniPointInputs& inputs, const To
   TokenConditioning conditions = condition_tokens(inputs, grid);
   at::Tensor tokens = encoder->backbone->prepare_tokens(encoder->preprocess(inputs.image, grid));
   if (conditions.offset.defined()) tokens = tokens + conditions.offset;
-  const EncoderOutput encoded =
-      encoder->project(encoder->backbone->intermediate_layers(tokens, config_.encoder.intermediate_layers), grid);
+  const EncoderOutput encoded = encoder->project(
+      encoder->backbone->intermediate_layers(tokens, config_.encoder.intermediate_layers), grid);
   if (conditioning) *conditioning = std::move(conditions);
   return encoded;
 }
 
 OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64_t num_tokens) {
   check_inputs(inputs);
-  const int64_t batch = inputs.image.size(0), height = inputs.image.size(2), width = inputs.image.size(3);
+  const int64_t batch = inputs.image.size(0), height = inputs.image.size(2),
+                width = inputs.image.size(3);
   const TokenGrid grid = token_grid(height, width, num_tokens);
   TokenConditioning conditioning;
   const EncoderOutput encoded = encode(inputs, grid, &conditioning);
@@ -160,7 +172,8 @@ OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64
     out.distance = at::exp(out.log_distance);
   } else {
     out.points_raw = head_map(points_head, neck_levels, height, width);
-    const geometry::RaysAndDistance factored = geometry::rays_from_points(remap_points(out.points_raw, "exp"));
+    const geometry::RaysAndDistance factored =
+        geometry::rays_from_points(remap_points(out.points_raw, "exp"));
     out.rays = factored.rays;
     out.distance = factored.distance;
   }
@@ -172,12 +185,15 @@ OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64
   return out;
 }
 
-OmniPointOutput align_to_metric_sparse_depth(const OmniPointOutput& output, const at::Tensor& sparse_depth) {
+OmniPointOutput align_to_metric_sparse_depth(const OmniPointOutput& output,
+                                             const at::Tensor& sparse_depth) {
   if (sparse_depth.dim() != 3 || sparse_depth.sizes() != output.distance.sizes())
-    throw std::invalid_argument("metric alignment: the sparse depth must be (B,H,W) at the output's size");
+    throw std::invalid_argument(
+        "metric alignment: the sparse depth must be (B,H,W) at the output's size");
   const int64_t batch = output.distance.size(0);
   const at::Tensor metric_distance = output.metric_scale.view({batch, 1, 1}) * output.distance;
-  const at::Tensor factor = sparse_depth_alignment_scale(metric_distance, sparse_depth.to(metric_distance.options()));
+  const at::Tensor factor =
+      sparse_depth_alignment_scale(metric_distance, sparse_depth.to(metric_distance.options()));
   OmniPointOutput aligned = output;
   aligned.metric_scale = output.metric_scale * factor;
   aligned.log_metric_scale = output.log_metric_scale + at::log(factor);

@@ -19,13 +19,14 @@ bool starts_with(const std::string& text, const std::string& prefix) {
 }
 
 bool under_any(const std::string& name, const std::vector<std::string>& prefixes) {
-  return std::any_of(prefixes.begin(), prefixes.end(), [&](const std::string& p) { return starts_with(name, p); });
+  return std::any_of(prefixes.begin(), prefixes.end(),
+                     [&](const std::string& p) { return starts_with(name, p); });
 }
 
 // Every model tensor under `prefixes` must be in `source` with its shape; one
 // std::runtime_error listing the problems otherwise.
-void require_all(const TensorMap& model, const TensorMap& source, const std::vector<std::string>& prefixes,
-                 const std::string& checkpoint) {
+void require_all(const TensorMap& model, const TensorMap& source,
+                 const std::vector<std::string>& prefixes, const std::string& checkpoint) {
   std::vector<std::string> problems;
   for (const auto& [name, tensor] : model) {
     if (!under_any(name, prefixes)) continue;
@@ -40,22 +41,27 @@ void require_all(const TensorMap& model, const TensorMap& source, const std::vec
   }
   if (problems.empty()) return;
   std::ostringstream message;
-  message << checkpoint << " does not fit the OmniPoint model (" << problems.size() << " problems: ";
-  for (std::size_t i = 0; i < problems.size() && i < 10; ++i) message << (i ? "; " : "") << problems[i];
+  message << checkpoint << " does not fit the OmniPoint model (" << problems.size()
+          << " problems: ";
+  for (std::size_t i = 0; i < problems.size() && i < 10; ++i)
+    message << (i ? "; " : "") << problems[i];
   if (problems.size() > 10) message << "; ... and " << problems.size() - 10 << " more";
   message << ')';
   throw std::runtime_error(message.str());
 }
 
 // Loads `source` (model names) partially and sorts the outcome into the report.
-InitReport load_and_report(OmniPointModelImpl& model, const TensorMap& source, std::set<std::string> ignored,
+InitReport load_and_report(OmniPointModelImpl& model, const TensorMap& source,
+                           std::set<std::string> ignored,
                            const std::map<std::string, std::string>& derived_from) {
   const LoadReport loaded = load_state_dict(model, source, LoadMode::kPartial);
   InitReport report;
   for (const std::string& name : loaded.loaded) {
     const auto how = derived_from.find(name);
-    if (how == derived_from.end()) report.loaded.push_back(name);
-    else report.derived.push_back(name + " <- " + how->second);
+    if (how == derived_from.end())
+      report.loaded.push_back(name);
+    else
+      report.derived.push_back(name + " <- " + how->second);
   }
   report.kept = loaded.missing;
   for (const std::string& name : loaded.mismatched) {
@@ -68,7 +74,8 @@ InitReport load_and_report(OmniPointModelImpl& model, const TensorMap& source, s
   return report;
 }
 
-void append_group(std::ostringstream& out, const char* title, const std::vector<std::string>& names) {
+void append_group(std::ostringstream& out, const char* title,
+                  const std::vector<std::string>& names) {
   out << title << ' ' << names.size();
   for (std::size_t i = 0; i < names.size(); ++i) out << (i ? ", " : ": ") << names[i];
   out << '\n';
@@ -85,14 +92,16 @@ std::string InitReport::summary() const {
   return out.str();
 }
 
-InitReport init_from_moge2(OmniPointModelImpl& model, const TensorMap& moge2, const MoGe2Config& moge2_config) {
+InitReport init_from_moge2(OmniPointModelImpl& model, const TensorMap& moge2,
+                           const MoGe2Config& moge2_config) {
   const OmniPointConfig& config = model.config();
   if (moge2_config.remap_output != "exp")
     throw std::invalid_argument("MoGe-2 initialisation needs remap_output \"exp\", got \"" +
                                 moge2_config.remap_output + "\"");
   const std::vector<std::string> shared = {"encoder.", "neck.", "mask_head.", "scale_head."};
   // The points head's output conv: the last level's output block.
-  const std::string output_conv = "output_blocks." + std::to_string(moge2_config.points_head->num_levels() - 1) + ".";
+  const std::string output_conv =
+      "output_blocks." + std::to_string(moge2_config.points_head->num_levels() - 1) + ".";
 
   TensorMap source;
   std::set<std::string> ignored;
@@ -128,13 +137,14 @@ InitReport init_from_moge2(OmniPointModelImpl& model, const TensorMap& moge2, co
 InitReport init_from_dinov2(OmniPointModelImpl& model, const TensorMap& dinov2) {
   const std::string prefix = "encoder.backbone.";
   TensorMap source;
-  for (const auto& [name, tensor] : dinov2) source[starts_with(name, prefix) ? name : prefix + name] = tensor;
+  for (const auto& [name, tensor] : dinov2)
+    source[starts_with(name, prefix) ? name : prefix + name] = tensor;
   require_all(state_dict(model), source, {prefix}, "DINOv2 checkpoint");
   return load_and_report(model, source, {}, {});
 }
 
 OmniPointModel load_omnipoint_model(const TensorMap& tensors,
-                                            const std::map<std::string, std::string>& metadata) {
+                                    const std::map<std::string, std::string>& metadata) {
   OmniPointModel model(config_from_metadata(metadata));
   load_state_dict(*model, tensors, LoadMode::kStrict);
   return model;

@@ -38,16 +38,18 @@ struct InitReport {
 //                 misses the factor sqrt(1 + a² + b²) of the distance and is left to training.
 // The conditioning keeps its zero-initialised fusion: with conditions absent the encoder
 // features are MoGe-2's.
-InitReport init_from_moge2(OmniPointModelImpl& model, const std::map<std::string, at::Tensor>& moge2,
+InitReport init_from_moge2(OmniPointModelImpl& model,
+                           const std::map<std::string, at::Tensor>& moge2,
                            const MoGe2Config& moge2_config);
 
 // From a DINOv2 backbone state dict, bare (`blocks.0.attn.qkv.weight`, as torch.hub ships it)
 // or prefixed (`encoder.backbone.…`). Strict on the backbone; everything else is kept.
-InitReport init_from_dinov2(OmniPointModelImpl& model, const std::map<std::string, at::Tensor>& dinov2);
+InitReport init_from_dinov2(OmniPointModelImpl& model,
+                            const std::map<std::string, at::Tensor>& dinov2);
 
 // A model built from checkpoint metadata (omnipoint_metadata) and loaded strictly from its
 // tensors; errors as load_state_dict and config_from_metadata.
 OmniPointModel load_omnipoint_model(const std::map<std::string, at::Tensor>& tensors,
-                                            const std::map<std::string, std::string>& metadata);
+                                    const std::map<std::string, std::string>& metadata);
 
 }  // namespace omnipoint::model

@@ -21,8 +21,10 @@ std::string shape_string(at::IntArrayRef sizes) {
 // "3 missing (a, b, c)", at most kMaxListedNames names then "... and N more".
 void describe(std::ostringstream& out, const char* what, const std::vector<std::string>& items) {
   out << "; " << items.size() << ' ' << what << " (";
-  for (std::size_t i = 0; i < items.size() && i < kMaxListedNames; ++i) out << (i ? ", " : "") << items[i];
-  if (items.size() > kMaxListedNames) out << ", ... and " << items.size() - kMaxListedNames << " more";
+  for (std::size_t i = 0; i < items.size() && i < kMaxListedNames; ++i)
+    out << (i ? ", " : "") << items[i];
+  if (items.size() > kMaxListedNames)
+    out << ", ... and " << items.size() - kMaxListedNames << " more";
   out << ')';
 }
 
@@ -30,16 +32,20 @@ void describe(std::ostringstream& out, const char* what, const std::vector<std::
 
 std::map<std::string, at::Tensor> state_dict(const torch::nn::Module& module) {
   std::map<std::string, at::Tensor> out;
-  for (const auto& item : module.named_parameters(/*recurse=*/true)) out[item.key()] = item.value().detach();
-  for (const auto& item : module.named_buffers(/*recurse=*/true)) out[item.key()] = item.value().detach();
+  for (const auto& item : module.named_parameters(/*recurse=*/true))
+    out[item.key()] = item.value().detach();
+  for (const auto& item : module.named_buffers(/*recurse=*/true))
+    out[item.key()] = item.value().detach();
   return out;
 }
 
-LoadReport load_state_dict(torch::nn::Module& module, const std::map<std::string, at::Tensor>& tensors,
-                           LoadMode mode) {
+LoadReport load_state_dict(torch::nn::Module& module,
+                           const std::map<std::string, at::Tensor>& tensors, LoadMode mode) {
   std::map<std::string, at::Tensor> targets;
-  for (const auto& item : module.named_parameters(/*recurse=*/true)) targets[item.key()] = item.value();
-  for (const auto& item : module.named_buffers(/*recurse=*/true)) targets[item.key()] = item.value();
+  for (const auto& item : module.named_parameters(/*recurse=*/true))
+    targets[item.key()] = item.value();
+  for (const auto& item : module.named_buffers(/*recurse=*/true))
+    targets[item.key()] = item.value();
 
   LoadReport report;
   std::vector<std::string> mismatch_details;

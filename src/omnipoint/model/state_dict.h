@@ -30,8 +30,8 @@ struct LoadReport {
 // module's dtype and device). Strict mode throws one std::runtime_error listing every
 // missing, unexpected and mismatched name (long lists truncated) and then leaves the module
 // untouched; partial mode loads the matches and reports the rest.
-LoadReport load_state_dict(torch::nn::Module& module, const std::map<std::string, at::Tensor>& tensors,
-                           LoadMode mode);
+LoadReport load_state_dict(torch::nn::Module& module,
+                           const std::map<std::string, at::Tensor>& tensors, LoadMode mode);
 
 // The module's parameters and buffers by dotted name, detached; they share memory with the
 // module (clone them to keep a snapshot across training steps).

@@ -22,7 +22,8 @@ namespace {
 
 std::string extension_of(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -38,7 +39,8 @@ at::Tensor read_kitti_bin(const std::string& path) {
   const std::string bytes = io::read_file(path);
   constexpr size_t kRecord = 4 * sizeof(float);
   if (bytes.empty() || bytes.size() % kRecord != 0)
-    throw std::invalid_argument("sparse depth " + path + ": a KITTI .bin holds float32 x, y, z, intensity records (" +
+    throw std::invalid_argument("sparse depth " + path +
+                                ": a KITTI .bin holds float32 x, y, z, intensity records (" +
                                 std::to_string(bytes.size()) + " bytes is not a multiple of 16)");
   const int64_t count = static_cast<int64_t>(bytes.size() / kRecord);
   at::Tensor records = at::empty({count, 4}, at::kFloat);
@@ -62,33 +64,41 @@ at::Tensor read_rigid_transform(const std::string& path) {
         values.push_back(std::stod(token, &used));
         if (used != token.size()) throw std::invalid_argument(token);
       } catch (const std::exception&) {
-        throw std::invalid_argument("camera-from-LiDAR " + path + ": \"" + token + "\" is not a number");
+        throw std::invalid_argument("camera-from-LiDAR " + path + ": \"" + token +
+                                    "\" is not a number");
       }
     }
     if (values.size() != 12 && values.size() != 16)
-      throw std::invalid_argument("camera-from-LiDAR " + path + ": expected 16 numbers (4x4) or 12 (3x4), got " +
+      throw std::invalid_argument("camera-from-LiDAR " + path +
+                                  ": expected 16 numbers (4x4) or 12 (3x4), got " +
                                   std::to_string(values.size()));
     matrix = at::tensor(values, at::kDouble).view({-1, 4});
   }
   if (matrix.dim() == 2 && matrix.size(0) == 3 && matrix.size(1) == 4)
     matrix = at::cat({matrix, at::tensor({0.0, 0.0, 0.0, 1.0}, at::kDouble).view({1, 4})});
-  if (matrix.dim() != 2 || matrix.size(0) != 4 || matrix.size(1) != 4 || !at::isfinite(matrix).all().item<bool>())
-    throw std::invalid_argument("camera-from-LiDAR " + path + ": expected a finite 4x4 (or 3x4) matrix");
+  if (matrix.dim() != 2 || matrix.size(0) != 4 || matrix.size(1) != 4 ||
+      !at::isfinite(matrix).all().item<bool>())
+    throw std::invalid_argument("camera-from-LiDAR " + path +
+                                ": expected a finite 4x4 (or 3x4) matrix");
   return matrix;
 }
 
-SparseDepthInput read_sparse_depth(const std::string& path, const std::string& camera_from_lidar_path) {
-  if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("sparse depth " + path + ": no such file");
+SparseDepthInput read_sparse_depth(const std::string& path,
+                                   const std::string& camera_from_lidar_path) {
+  if (!std::filesystem::is_regular_file(path))
+    throw std::runtime_error("sparse depth " + path + ": no such file");
   const std::string ext = extension_of(path);
   SparseDepthInput input;
   if (ext == ".png" || ext == ".exr" || ext == ".npy") {
     if (!camera_from_lidar_path.empty())
-      throw std::invalid_argument("sparse depth " + path + ": --lidar-to-camera applies to point clouds only");
+      throw std::invalid_argument("sparse depth " + path +
+                                  ": --lidar-to-camera applies to point clouds only");
     at::Tensor depth;
     if (ext == ".npy") {
       depth = io::read_npy(path);
       if (!at::isFloatingType(depth.scalar_type()))
-        throw std::invalid_argument("sparse depth " + path + ": expected float depth in metres, got dtype " +
+        throw std::invalid_argument("sparse depth " + path +
+                                    ": expected float depth in metres, got dtype " +
                                     std::string(c10::toString(depth.scalar_type())));
     } else {
       try {
@@ -96,13 +106,15 @@ SparseDepthInput read_sparse_depth(const std::string& path, const std::string& c
       } catch (const std::runtime_error& e) {
         if (ext != ".exr") throw;
         // OpenCV builds EXR support in but disables it unless OPENCV_IO_ENABLE_OPENEXR is set.
-        throw std::runtime_error("sparse depth " + path + ": OpenCV could not decode this EXR (" + e.what() +
-                                 "); its EXR codec is off unless OPENCV_IO_ENABLE_OPENEXR=1 is set, or pass .npy");
+        throw std::runtime_error(
+            "sparse depth " + path + ": OpenCV could not decode this EXR (" + e.what() +
+            "); its EXR codec is off unless OPENCV_IO_ENABLE_OPENEXR=1 is set, or pass .npy");
       }
       if (ext == ".png") depth = depth / 1000.0;  // millimetres
     }
     if (depth.dim() != 2)
-      throw std::invalid_argument("sparse depth " + path + ": expected a single-channel (H, W) map, got " +
+      throw std::invalid_argument("sparse depth " + path +
+                                  ": expected a single-channel (H, W) map, got " +
                                   c10::str(depth.sizes()));
     input.depth_map = depth.to(at::kFloat);
     input.depth_is_planar = true;
@@ -113,10 +125,12 @@ SparseDepthInput read_sparse_depth(const std::string& path, const std::string& c
   } else if (ext == ".bin") {
     input.lidar_points = read_kitti_bin(path);
   } else {
-    throw std::invalid_argument("sparse depth " + path +
-                                ": unknown format (expected .png in mm, .npy or .exr in metres, .ply or KITTI .bin)");
+    throw std::invalid_argument(
+        "sparse depth " + path +
+        ": unknown format (expected .png in mm, .npy or .exr in metres, .ply or KITTI .bin)");
   }
-  if (!camera_from_lidar_path.empty()) input.camera_from_lidar = read_rigid_transform(camera_from_lidar_path);
+  if (!camera_from_lidar_path.empty())
+    input.camera_from_lidar = read_rigid_transform(camera_from_lidar_path);
   return input;
 }
 

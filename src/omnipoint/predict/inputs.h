@@ -18,7 +18,8 @@
 
 namespace omnipoint::predict {
 
-SparseDepthInput read_sparse_depth(const std::string& path, const std::string& camera_from_lidar_path = "");
+SparseDepthInput read_sparse_depth(const std::string& path,
+                                   const std::string& camera_from_lidar_path = "");
 
 // (4, 4) float64 camera-from-LiDAR transform.
 at::Tensor read_rigid_transform(const std::string& path);

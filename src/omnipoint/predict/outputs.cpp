@@ -31,7 +31,8 @@ nlohmann::json summary(const Prediction& p) {
     const camera::FieldOfView fov = camera::field_of_view(*p.fitted_camera);
     json["camera"] = nlohmann::json::parse(p.fitted_camera->to_json());
     json["camera_spec"] = p.fitted_camera->to_spec();
-    json["fov_deg"] = {{"horizontal", fov.horizontal_deg}, {"vertical", fov.vertical_deg},
+    json["fov_deg"] = {{"horizontal", fov.horizontal_deg},
+                       {"vertical", fov.vertical_deg},
                        {"diagonal", fov.diagonal_deg}};
   } else {
     json["camera"] = nullptr;
@@ -41,8 +42,10 @@ nlohmann::json summary(const Prediction& p) {
   json["sparse_depth"] = {{"samples", p.sparse_samples}, {"alignment_factor", p.alignment_factor}};
   json["valid_pixels"] = p.mask.sum().item<int64_t>();
   json["notes"] = p.notes;
-  json["timing_ms"] = {{"prepare", p.timing.prepare_ms}, {"network", p.timing.network_ms},
-                       {"alignment", p.timing.alignment_ms}, {"camera_fit", p.timing.camera_fit_ms}};
+  json["timing_ms"] = {{"prepare", p.timing.prepare_ms},
+                       {"network", p.timing.network_ms},
+                       {"alignment", p.timing.alignment_ms},
+                       {"camera_fit", p.timing.camera_fit_ms}};
   return json;
 }
 
@@ -52,40 +55,51 @@ void write_text(const fs::path& path, const std::string& text) {
 
 }  // namespace
 
-std::string prediction_summary_json(const Prediction& prediction) { return summary(prediction).dump(2); }
+std::string prediction_summary_json(const Prediction& prediction) {
+  return summary(prediction).dump(2);
+}
 
-double write_prediction_outputs(const std::string& folder, const at::Tensor& image, const Prediction& p) {
+double write_prediction_outputs(const std::string& folder, const at::Tensor& image,
+                                const Prediction& p) {
   const auto start = std::chrono::steady_clock::now();
   const int64_t height = p.mask.size(0), width = p.mask.size(1);
   if (image.dim() != 3 || image.size(0) != height || image.size(1) != width || image.size(2) != 3)
-    throw std::invalid_argument("outputs: the image is " + c10::str(image.sizes()) + ", the prediction " +
-                                std::to_string(height) + "x" + std::to_string(width));
-  const at::Tensor rgb = image.scalar_type() == at::kByte
-                             ? image.to(at::kCPU)
-                             : (image.to(at::kCPU, at::kFloat).clamp(0, 1) * 255).round().to(at::kByte);
+    throw std::invalid_argument("outputs: the image is " + c10::str(image.sizes()) +
+                                ", the prediction " + std::to_string(height) + "x" +
+                                std::to_string(width));
+  const at::Tensor rgb =
+      image.scalar_type() == at::kByte
+          ? image.to(at::kCPU)
+          : (image.to(at::kCPU, at::kFloat).clamp(0, 1) * 255).round().to(at::kByte);
 
   const fs::path target(folder);
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
   fs::create_directories(parent);
   std::random_device random;
-  const fs::path staging = parent / ("." + target.filename().string() + ".partial-" + std::to_string(random()));
+  const fs::path staging =
+      parent / ("." + target.filename().string() + ".partial-" + std::to_string(random()));
   fs::create_directories(staging);
   try {
-    const geometry::PointCloud cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
+    const geometry::PointCloud cloud =
+        geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
     io::write_ply((staging / "points.ply").string(), cloud.points, cloud.colors);
     io::write_glb_points((staging / "points.glb").string(), cloud.points, cloud.colors);
     io::write_npy((staging / "distance.npy").string(), p.distance.to(at::kFloat));
     io::write_npy((staging / "depth.npy").string(), p.depth.to(at::kFloat));
     io::write_npy((staging / "rays.npy").string(), p.rays.to(at::kFloat));
     io::write_image_png((staging / "mask.png").string(), p.mask);
-    const at::Tensor depth_mm = at::where(p.mask & (p.depth > 0), (p.depth * 1000.0).round().clamp(0, 65535),
-                                          at::zeros_like(p.depth));
+    const at::Tensor depth_mm =
+        at::where(p.mask & (p.depth > 0), (p.depth * 1000.0).round().clamp(0, 65535),
+                  at::zeros_like(p.depth));
     io::write_image_png((staging / "depth.png").string(), depth_mm.to(at::kInt));
-    io::write_image_png((staging / "depth_vis.png").string(), geometry::colorize_depth(p.distance, p.mask));
+    io::write_image_png((staging / "depth_vis.png").string(),
+                        geometry::colorize_depth(p.distance, p.mask));
     const auto preview_start = std::chrono::steady_clock::now();
-    io::write_image_png((staging / "preview.png").string(), render_preview(cloud.points, cloud.colors));
+    io::write_image_png((staging / "preview.png").string(),
+                        render_preview(cloud.points, cloud.colors));
     const double preview_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - preview_start).count();
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - preview_start)
+            .count();
     nlohmann::json json = summary(p);
     json["timing_ms"]["preview"] = preview_ms;  // part of writing
     json["timing_ms"]["writing"] =
@@ -98,7 +112,8 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     fs::remove_all(staging, ignored);
     throw;
   }
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 }  // namespace omnipoint::predict

@@ -24,7 +24,8 @@ namespace omnipoint::predict {
 
 // image (H, W, 3) RGB in [0, 1] (float) or uint8, the image the prediction was made from.
 // Returns the milliseconds spent writing.
-double write_prediction_outputs(const std::string& folder, const at::Tensor& image, const Prediction& prediction);
+double write_prediction_outputs(const std::string& folder, const at::Tensor& image,
+                                const Prediction& prediction);
 
 // camera.json's content (without the writing time).
 std::string prediction_summary_json(const Prediction& prediction);

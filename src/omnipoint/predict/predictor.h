@@ -68,12 +68,12 @@ struct StageTimes {
 };
 
 struct Prediction {
-  at::Tensor rays;      // (H, W, 3) unit rays; zero where invalid
-  at::Tensor distance;  // (H, W) metric radial distance; zero where mask is false
-  at::Tensor depth;     // (H, W) planar depth z = P.z; zero where mask is false
-  at::Tensor points;    // (H, W, 3) metric points; zero where mask is false
-  at::Tensor mask;      // (H, W) bool: valid geometry
-  double metric_scale = 1.0;  // s (after alignment); 1 for scale-less (affine) models
+  at::Tensor rays;                // (H, W, 3) unit rays; zero where invalid
+  at::Tensor distance;            // (H, W) metric radial distance; zero where mask is false
+  at::Tensor depth;               // (H, W) planar depth z = P.z; zero where mask is false
+  at::Tensor points;              // (H, W, 3) metric points; zero where mask is false
+  at::Tensor mask;                // (H, W) bool: valid geometry
+  double metric_scale = 1.0;      // s (after alignment); 1 for scale-less (affine) models
   double alignment_factor = 1.0;  // the factor the sparse-depth alignment applied to s
   int64_t sparse_samples = 0;     // valid sparse-depth pixels used
   std::optional<camera::Camera> fitted_camera;
@@ -95,7 +95,8 @@ class Model {
   Prediction predict(const at::Tensor& image, const PredictOptions& options = {}) const;
   // A batch of images of one size (B, H, W, 3) with shared options, in one forward pass; the
   // sparse depth (if any) must be a depth map (B, H, W). Each result's timing is the batch's.
-  std::vector<Prediction> predict_batch(const at::Tensor& images, const PredictOptions& options = {}) const;
+  std::vector<Prediction> predict_batch(const at::Tensor& images,
+                                        const PredictOptions& options = {}) const;
 
   const std::string& format() const;  // "omnipoint" or "moge2"
   at::Device device() const;
@@ -122,8 +123,8 @@ std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid);
 // A prediction built from geometry alone (the output writers' input; also the oracle path of
 // the tests): rays (H, W, 3), metric distance (H, W), mask (H, W); points, depth and the
 // zeroing outside the mask follow.
-Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask,
-                                    double metric_scale = 1.0);
+Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& distance,
+                                    const at::Tensor& mask, double metric_scale = 1.0);
 
 }  // namespace omnipoint::predict
 

@@ -20,6 +20,7 @@ struct PreviewOptions {
 
 // points (N, 3) camera frame (finite), colors (N, 3) uint8 -> (height, width, 3) uint8 image,
 // dark grey where no point lands.
-at::Tensor render_preview(const at::Tensor& points, const at::Tensor& colors, const PreviewOptions& options = {});
+at::Tensor render_preview(const at::Tensor& points, const at::Tensor& colors,
+                          const PreviewOptions& options = {});
 
 }  // namespace omnipoint::predict

@@ -30,9 +30,12 @@ data::Sample fit_to_size(const data::Sample& sample, int64_t width, int64_t heig
   const int64_t w = sample.camera.width(), h = sample.camera.height();
   if (w == width && h == height) return sample;
   int64_t crop_w = w, crop_h = h;
-  if (w * height > h * width) crop_w = std::max<int64_t>(1, h * width / height);
-  else crop_h = std::max<int64_t>(1, w * height / width);
-  const data::Sample cropped = data::crop_sample(sample, (w - crop_w) / 2, (h - crop_h) / 2, crop_w, crop_h);
+  if (w * height > h * width)
+    crop_w = std::max<int64_t>(1, h * width / height);
+  else
+    crop_h = std::max<int64_t>(1, w * height / width);
+  const data::Sample cropped =
+      data::crop_sample(sample, (w - crop_w) / 2, (h - crop_h) / 2, crop_w, crop_h);
   return data::resize_sample(cropped, width, height);
 }
 
@@ -42,12 +45,13 @@ data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
   augment::VirtualCameraDistribution distribution;
   distribution.fisheye_size = std::max(width, height);
   distribution.panorama_width = 2 * std::max(width, height);
-  augment::VirtualView view = augment::sample_virtual_view(distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
+  augment::VirtualView view =
+      augment::sample_virtual_view(distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
   view.camera = view.camera.resized(width, height);
   const augment::P2AResult rendered =
       augment::perspective_to_any(sample.camera, sample.image, sample.distance, sample.mask, view);
-  return {rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(), rendered.mask.contiguous(),
-          sample.metric};
+  return {rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(),
+          rendered.mask.contiguous(), sample.metric};
 }
 
 // A2P: the sample's labels replaced by the teacher's, stitched back from one random view.
@@ -55,12 +59,14 @@ data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
 data::Sample any_to_perspective(const data::Sample& sample, const at::Tensor& camera_valid,
                                 const augment::Teacher& teacher, uint64_t seed) {
   augment::A2PViewDistribution distribution;
-  distribution.min_size = distribution.max_size = std::max(sample.camera.width(), sample.camera.height());
-  const augment::PerspectiveView view =
-      augment::sample_perspective_view(sample.camera, distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
-  const augment::A2PResult result = augment::any_to_perspective(sample.camera, sample.image, view, teacher, camera_valid);
-  return {sample.camera, sample.image, result.label.distance.to(at::kFloat).contiguous(), result.label.mask.contiguous(),
-          false};
+  distribution.min_size = distribution.max_size =
+      std::max(sample.camera.width(), sample.camera.height());
+  const augment::PerspectiveView view = augment::sample_perspective_view(
+      sample.camera, distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
+  const augment::A2PResult result =
+      augment::any_to_perspective(sample.camera, sample.image, view, teacher, camera_valid);
+  return {sample.camera, sample.image, result.label.distance.to(at::kFloat).contiguous(),
+          result.label.mask.contiguous(), false};
 }
 
 }  // namespace
@@ -77,11 +83,13 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     if (!source.synth) {
       std::error_code error;
       if (!fs::is_directory(source.folders, error))
-        throw std::runtime_error("training data \"" + source.folders + "\": not a directory of sample folders");
+        throw std::runtime_error("training data \"" + source.folders +
+                                 "\": not a directory of sample folders");
       for (const fs::directory_entry& entry : fs::directory_iterator(source.folders))
         if (entry.is_directory()) folders.push_back(entry.path().string());
       if (folders.empty())
-        throw std::runtime_error("training data \"" + source.folders + "\": holds no sample folders");
+        throw std::runtime_error("training data \"" + source.folders +
+                                 "\": holds no sample folders");
       std::sort(folders.begin(), folders.end());
     }
     folders_.push_back(std::move(folders));
@@ -96,7 +104,8 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     }
     teacher->eval();
     for (at::Tensor& parameter : teacher->parameters()) parameter.set_requires_grad(false);
-    const int64_t tokens = config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
+    const int64_t tokens =
+        config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
     teacher_ = augment::omnipoint_teacher(teacher, tokens);
   }
 }
@@ -121,14 +130,16 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
         const SynthSource& synth = dataset.synth_source;
         const auto kind = data::synth::parse_scene_kind(
             synth.scenes[random.integer(0, static_cast<int>(synth.scenes.size()) - 1)]);
-        camera::Camera camera =
-            camera::parse_camera(synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)]);
-        if (camera.width() != width || camera.height() != height) camera = camera.resized(width, height);
+        camera::Camera camera = camera::parse_camera(
+            synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)]);
+        if (camera.width() != width || camera.height() != height)
+          camera = camera.resized(width, height);
         return data::synth::synthesize(kind, random.next_u64(), camera).sample;
       }
       const std::vector<std::string>& folders = folders_[source];
-      return fit_to_size(data::read_sample(folders[random.integer(0, static_cast<int>(folders.size()) - 1)]),
-                         width, height);
+      return fit_to_size(
+          data::read_sample(folders[random.integer(0, static_cast<int>(folders.size()) - 1)]),
+          width, height);
     }();
     // The augmentations draw only when enabled, so a config without them sees the same items.
     data::Sample sample = loaded;
@@ -158,11 +169,13 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
     // (An A2P item's "GT" is its pseudo-label.)
     const bool with_rays = conditions && random.chance(config_.condition_probability);
     const bool with_depth = conditions && random.chance(config_.condition_probability);
-    cond_rays.push_back(with_rays ? ray_map.rays.permute({2, 0, 1}) : at::zeros({3, height, width}));
+    cond_rays.push_back(with_rays ? ray_map.rays.permute({2, 0, 1})
+                                  : at::zeros({3, height, width}));
     if (with_depth) {
       const double ratio = random.uniform(config_.sparse_ratio[0], config_.sparse_ratio[1]);
       at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(random.next_u64());
-      cond_depth.push_back(geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth);
+      cond_depth.push_back(
+          geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth);
     } else {
       cond_depth.push_back(at::zeros({height, width}));
     }
@@ -176,8 +189,10 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
   batch.targets.mask = at::stack(masks);
   batch.targets.mask_negative = at::stack(negatives);
   batch.targets.metric = at::stack(metric);
-  data::synth::Random tokens(derived_seed(config_.seed, stream ^ kTokenStream, static_cast<uint64_t>(step)), 0);
-  batch.num_tokens = tokens.integer(static_cast<int>(config_.num_tokens[0]), static_cast<int>(config_.num_tokens[1]));
+  data::synth::Random tokens(
+      derived_seed(config_.seed, stream ^ kTokenStream, static_cast<uint64_t>(step)), 0);
+  batch.num_tokens = tokens.integer(static_cast<int>(config_.num_tokens[0]),
+                                    static_cast<int>(config_.num_tokens[1]));
   return batch;
 }
 

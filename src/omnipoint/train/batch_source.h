@@ -35,7 +35,7 @@ struct TrainingBatch {
   at::Tensor condition_rays;          // (B,3,H,W) GT rays where the condition is on, else 0
   at::Tensor condition_sparse_depth;  // (B,H,W) sparse GT distances where on, else 0
   LossTargets targets;
-  int64_t num_tokens = 0;             // token budget of this step (the same on every rank)
+  int64_t num_tokens = 0;  // token budget of this step (the same on every rank)
 };
 
 class BatchSource {

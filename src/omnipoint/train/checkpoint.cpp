@@ -19,7 +19,8 @@ std::string step_name(int64_t step) {
 }
 
 std::string trim(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == ' ' || text.back() == '\r')) text.pop_back();
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ' || text.back() == '\r'))
+    text.pop_back();
   return text;
 }
 
@@ -29,14 +30,17 @@ void write_text(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-std::string write_checkpoint(const std::string& dir, const TrainState& state, const model::OmniPointConfig& config) {
+std::string write_checkpoint(const std::string& dir, const TrainState& state,
+                             const model::OmniPointConfig& config) {
   const std::string name = step_name(state.progress.at("step").get<int64_t>());
   const fs::path final_dir = fs::path(dir) / name;
   const fs::path partial = fs::path(dir) / (name + ".partial");
   std::error_code error;
   fs::remove_all(partial, error);
   fs::create_directories(partial, error);
-  if (error) throw std::runtime_error("checkpoint folder \"" + partial.string() + "\": cannot create it: " + error.message());
+  if (error)
+    throw std::runtime_error("checkpoint folder \"" + partial.string() +
+                             "\": cannot create it: " + error.message());
   const auto metadata = model::omnipoint_metadata(config);
   io::write_safetensors((partial / "model.safetensors").string(), state.model, metadata);
   io::write_safetensors((partial / "ema.safetensors").string(), state.ema, metadata);
@@ -45,7 +49,9 @@ std::string write_checkpoint(const std::string& dir, const TrainState& state, co
   write_text((partial / "progress.json").string(), state.progress.dump(2) + "\n");
   fs::remove_all(final_dir, error);
   fs::rename(partial, final_dir, error);
-  if (error) throw std::runtime_error("checkpoint folder \"" + final_dir.string() + "\": cannot rename into place: " + error.message());
+  if (error)
+    throw std::runtime_error("checkpoint folder \"" + final_dir.string() +
+                             "\": cannot rename into place: " + error.message());
   write_text((fs::path(dir) / "latest").string(), name + "\n");
   return final_dir.string();
 }
@@ -57,26 +63,31 @@ std::string resolve_checkpoint(const std::string& path) {
     if (fs::exists(dir / "latest")) {
       const fs::path step = dir / trim(io::read_file((dir / "latest").string()));
       if (fs::exists(step / "progress.json")) return step.string();
-      throw std::runtime_error("checkpoint \"" + path + "\": \"latest\" points to a missing folder " + step.string());
+      throw std::runtime_error("checkpoint \"" + path +
+                               "\": \"latest\" points to a missing folder " + step.string());
     }
   }
   throw std::runtime_error("checkpoint \"" + path +
-                           "\": not a checkpoint (expected progress.json, or a \"latest\" file in it or in checkpoints/)");
+                           "\": not a checkpoint (expected progress.json, or a \"latest\" file in "
+                           "it or in checkpoints/)");
 }
 
 TrainState read_checkpoint(const std::string& path) {
   const fs::path dir(resolve_checkpoint(path));
   TrainState state;
-  io::SafetensorsFile model_file = io::read_safetensors((dir / "model.safetensors").string(), std::nullopt);
+  io::SafetensorsFile model_file =
+      io::read_safetensors((dir / "model.safetensors").string(), std::nullopt);
   state.model = std::move(model_file.tensors);
   state.model_metadata = std::move(model_file.metadata);
   state.ema = io::read_safetensors((dir / "ema.safetensors").string(), std::nullopt).tensors;
-  state.optimizer = io::read_safetensors((dir / "optimizer.safetensors").string(), std::nullopt).tensors;
+  state.optimizer =
+      io::read_safetensors((dir / "optimizer.safetensors").string(), std::nullopt).tensors;
   state.rng = io::read_safetensors((dir / "rng.safetensors").string(), std::nullopt).tensors;
   try {
     state.progress = nlohmann::json::parse(io::read_file((dir / "progress.json").string()));
   } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error("checkpoint \"" + dir.string() + "\": progress.json is not valid JSON: " + e.what());
+    throw std::runtime_error("checkpoint \"" + dir.string() +
+                             "\": progress.json is not valid JSON: " + e.what());
   }
   return state;
 }

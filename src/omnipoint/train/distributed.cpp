@@ -1,12 +1,13 @@
 #include "omnipoint/train/distributed.h"
 
 #include <ATen/ATen.h>
+#include <torch/nn/module.h>
 #include <torch/csrc/distributed/c10d/ProcessGroup.hpp>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
-#include <torch/nn/module.h>
 
 #ifndef USE_C10D_GLOO
-#error "OmniPoint needs LibTorch built with c10d Gloo (USE_C10D_GLOO) and the gloo headers (Debian: libgloo-dev)"
+#error \
+    "OmniPoint needs LibTorch built with c10d Gloo (USE_C10D_GLOO) and the gloo headers (Debian: libgloo-dev)"
 #endif
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
 #ifdef USE_C10D_NCCL
@@ -22,7 +23,8 @@ namespace {
 
 // A whole decimal integer in [low, high], or std::invalid_argument naming the variable.
 int parse_env_int(const std::string& name, const std::string& text, int low, int high) {
-  const std::string expected = "expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) + "]";
+  const std::string expected =
+      "expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) + "]";
   size_t used = 0;
   long long value = 0;
   try {
@@ -41,7 +43,8 @@ bool is_loopback(const std::string& address) {
 
 // Runs `collective` on each bucket of `tensors`: flatten, collective, copy back.
 template <class Collective>
-int64_t run_bucketed(const std::vector<at::Tensor>& tensors, int64_t bucket_bytes, Collective collective) {
+int64_t run_bucketed(const std::vector<at::Tensor>& tensors, int64_t bucket_bytes,
+                     Collective collective) {
   at::NoGradGuard no_grad;
   const auto buckets = plan_buckets(tensors, bucket_bytes);
   for (const auto& bucket : buckets) {
@@ -70,29 +73,36 @@ DistributedEnv parse_distributed_env(
     const std::function<std::optional<std::string>(const std::string&)>& lookup) {
   constexpr int kMaxWorld = 1 << 20;
   DistributedEnv env;
-  if (const auto world = lookup("WORLD_SIZE")) env.world_size = parse_env_int("WORLD_SIZE", *world, 1, kMaxWorld);
+  if (const auto world = lookup("WORLD_SIZE"))
+    env.world_size = parse_env_int("WORLD_SIZE", *world, 1, kMaxWorld);
   const auto rank = lookup("RANK");
   if (rank) {
     env.rank = parse_env_int("RANK", *rank, 0, kMaxWorld);
     if (env.rank >= env.world_size)
-      throw std::invalid_argument("environment variable RANK=" + *rank + ": expected a rank below WORLD_SIZE=" +
-                                  std::to_string(env.world_size));
+      throw std::invalid_argument(
+          "environment variable RANK=" + *rank +
+          ": expected a rank below WORLD_SIZE=" + std::to_string(env.world_size));
   }
-  if (const auto local = lookup("LOCAL_RANK")) env.local_rank = parse_env_int("LOCAL_RANK", *local, 0, kMaxWorld);
+  if (const auto local = lookup("LOCAL_RANK"))
+    env.local_rank = parse_env_int("LOCAL_RANK", *local, 0, kMaxWorld);
   if (env.world_size == 1) return env;
 
   if (!rank)
-    throw std::invalid_argument("environment variable RANK is not set: expected it with WORLD_SIZE=" +
-                                std::to_string(env.world_size));
+    throw std::invalid_argument(
+        "environment variable RANK is not set: expected it with WORLD_SIZE=" +
+        std::to_string(env.world_size));
   const auto addr = lookup("MASTER_ADDR");
   if (!addr || addr->empty())
-    throw std::invalid_argument("environment variable MASTER_ADDR is not set: expected the host of rank 0 with WORLD_SIZE=" +
-                                std::to_string(env.world_size));
+    throw std::invalid_argument(
+        "environment variable MASTER_ADDR is not set: expected the host of rank 0 with "
+        "WORLD_SIZE=" +
+        std::to_string(env.world_size));
   env.master_addr = *addr;
   const auto port = lookup("MASTER_PORT");
   if (!port)
-    throw std::invalid_argument("environment variable MASTER_PORT is not set: expected rank 0's port with WORLD_SIZE=" +
-                                std::to_string(env.world_size));
+    throw std::invalid_argument(
+        "environment variable MASTER_PORT is not set: expected rank 0's port with WORLD_SIZE=" +
+        std::to_string(env.world_size));
   env.master_port = parse_env_int("MASTER_PORT", *port, 1, 65535);
   return env;
 }
@@ -118,12 +128,16 @@ DistributedContext& DistributedContext::operator=(DistributedContext&&) noexcept
 DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOptions options)
     : env_(env), options_(options) {
   if (env.world_size < 1 || env.rank < 0 || env.rank >= env.world_size)
-    throw std::invalid_argument("distributed: rank " + std::to_string(env.rank) + " of world size " +
-                                std::to_string(env.world_size) + ": expected 0 <= rank < world size");
-  if (options.bucket_bytes <= 0) throw std::invalid_argument("distributed: bucket_bytes must be positive");
+    throw std::invalid_argument("distributed: rank " + std::to_string(env.rank) +
+                                " of world size " + std::to_string(env.world_size) +
+                                ": expected 0 <= rank < world size");
+  if (options.bucket_bytes <= 0)
+    throw std::invalid_argument("distributed: bucket_bytes must be positive");
 #ifndef USE_C10D_NCCL
   if (options.cuda)
-    throw std::invalid_argument("distributed: CUDA training needs LibTorch built with NCCL (USE_C10D_NCCL); this one has Gloo only");
+    throw std::invalid_argument(
+        "distributed: CUDA training needs LibTorch built with NCCL (USE_C10D_NCCL); this one has "
+        "Gloo only");
 #endif
   if (!active()) return;
 
@@ -138,19 +152,21 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
     store_options.timeout = options.timeout;
     group_->store = c10::make_intrusive<c10d::TCPStore>(env.master_addr, store_options);
   } catch (const std::exception& error) {
-    const std::string failure = env.rank == 0 ? " could not host the rendezvous for " + std::to_string(env.world_size) +
-                                                    " ranks at MASTER_ADDR:MASTER_PORT="
-                                              : " could not reach the rendezvous at MASTER_ADDR:MASTER_PORT=";
-    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) + failure + master + " within " +
-                             std::to_string(options.timeout.count()) + " ms: " + error.what());
+    const std::string failure =
+        env.rank == 0 ? " could not host the rendezvous for " + std::to_string(env.world_size) +
+                            " ranks at MASTER_ADDR:MASTER_PORT="
+                      : " could not reach the rendezvous at MASTER_ADDR:MASTER_PORT=";
+    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) + failure + master +
+                             " within " + std::to_string(options.timeout.count()) +
+                             " ms: " + error.what());
   }
   try {
 #ifdef USE_C10D_NCCL
     if (options.cuda) {
       auto nccl_options = c10d::ProcessGroupNCCL::Options::create();
       nccl_options->timeout = options.timeout;
-      group_->process_group =
-          c10::make_intrusive<c10d::ProcessGroupNCCL>(group_->store, env.rank, env.world_size, nccl_options);
+      group_->process_group = c10::make_intrusive<c10d::ProcessGroupNCCL>(
+          group_->store, env.rank, env.world_size, nccl_options);
       return;
     }
 #endif
@@ -164,11 +180,12 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
       gloo_options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForHostname("127.0.0.1"));
     else
       gloo_options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
-    group_->process_group =
-        c10::make_intrusive<c10d::ProcessGroupGloo>(group_->store, env.rank, env.world_size, gloo_options);
+    group_->process_group = c10::make_intrusive<c10d::ProcessGroupGloo>(
+        group_->store, env.rank, env.world_size, gloo_options);
   } catch (const std::exception& error) {
-    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) + " could not join the process group at " +
-                             master + ": " + error.what());
+    throw std::runtime_error("distributed: rank " + std::to_string(env.rank) +
+                             " could not join the process group at " + master + ": " +
+                             error.what());
   }
 }
 
@@ -205,7 +222,8 @@ void DistributedContext::all_reduce_gradients(const std::vector<at::Tensor>& par
   if (!active()) return;
   // Which ranks have each gradient: one small all-reduce of flags.
   std::vector<float> defined;
-  for (const at::Tensor& parameter : parameters) defined.push_back(parameter.grad().defined() ? 1.0f : 0.0f);
+  for (const at::Tensor& parameter : parameters)
+    defined.push_back(parameter.grad().defined() ? 1.0f : 0.0f);
   at::Tensor has_gradient = at::tensor(defined, at::kFloat);
   if (options_.cuda && !parameters.empty()) has_gradient = has_gradient.to(parameters[0].device());
   std::vector<at::Tensor> flags{has_gradient};
@@ -233,7 +251,8 @@ std::vector<double> DistributedContext::all_reduce_mean(const std::vector<double
   return std::vector<double>(flat.data_ptr<double>(), flat.data_ptr<double>() + flat.numel());
 }
 
-std::map<std::string, double> DistributedContext::all_reduce_mean(const std::map<std::string, double>& values) const {
+std::map<std::string, double> DistributedContext::all_reduce_mean(
+    const std::map<std::string, double>& values) const {
   std::vector<double> flat;
   for (const auto& [name, value] : values) flat.push_back(value);
   flat = all_reduce_mean(flat);
@@ -252,7 +271,8 @@ void DistributedContext::barrier() const {
   group_->process_group->barrier()->wait();
 }
 
-std::vector<std::vector<size_t>> plan_buckets(const std::vector<at::Tensor>& tensors, int64_t bucket_bytes) {
+std::vector<std::vector<size_t>> plan_buckets(const std::vector<at::Tensor>& tensors,
+                                              int64_t bucket_bytes) {
   if (bucket_bytes <= 0) throw std::invalid_argument("plan_buckets: bucket_bytes must be positive");
   struct Open {
     at::ScalarType dtype;
@@ -264,7 +284,8 @@ std::vector<std::vector<size_t>> plan_buckets(const std::vector<at::Tensor>& ten
   std::vector<std::vector<size_t>> buckets;
   for (size_t i = 0; i < tensors.size(); ++i) {
     const at::Tensor& tensor = tensors[i];
-    if (!tensor.defined()) throw std::invalid_argument("plan_buckets: tensor " + std::to_string(i) + " is undefined");
+    if (!tensor.defined())
+      throw std::invalid_argument("plan_buckets: tensor " + std::to_string(i) + " is undefined");
     const int64_t bytes = tensor.numel() * static_cast<int64_t>(tensor.element_size());
     auto slot = std::find_if(open.begin(), open.end(), [&](const Open& o) {
       return o.dtype == tensor.scalar_type() && o.device == tensor.device();
@@ -288,9 +309,10 @@ std::vector<std::vector<size_t>> plan_buckets(const std::vector<at::Tensor>& ten
 
 std::vector<int64_t> shard_indices(int64_t count, int rank, int world_size) {
   if (count < 0 || world_size < 1 || rank < 0 || rank >= world_size)
-    throw std::invalid_argument("shard_indices: expected count >= 0 and 0 <= rank < world_size, got count " +
-                                std::to_string(count) + ", rank " + std::to_string(rank) + ", world_size " +
-                                std::to_string(world_size));
+    throw std::invalid_argument(
+        "shard_indices: expected count >= 0 and 0 <= rank < world_size, got count " +
+        std::to_string(count) + ", rank " + std::to_string(rank) + ", world_size " +
+        std::to_string(world_size));
   std::vector<int64_t> indices;
   for (int64_t i = rank; i < count; i += world_size) indices.push_back(i);
   return indices;

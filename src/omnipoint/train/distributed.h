@@ -31,9 +31,9 @@ namespace omnipoint::train {
 struct DistributedEnv {
   int rank = 0;
   int world_size = 1;
-  int local_rank = 0;          // LOCAL_RANK, 0 when unset: the process's index on its machine
-  std::string master_addr;     // required when world_size > 1
-  int master_port = 0;         // required when world_size > 1
+  int local_rank = 0;       // LOCAL_RANK, 0 when unset: the process's index on its machine
+  std::string master_addr;  // required when world_size > 1
+  int master_port = 0;      // required when world_size > 1
 };
 
 // Reads the variables through `lookup` (nullopt = unset). std::invalid_argument naming the
@@ -90,7 +90,9 @@ class DistributedContext {
 
   // Means over the ranks of per-rank scalars (losses, metrics), for logging.
   std::vector<double> all_reduce_mean(const std::vector<double>& values) const;
-  double all_reduce_mean(double value) const { return all_reduce_mean(std::vector<double>{value})[0]; }
+  double all_reduce_mean(double value) const {
+    return all_reduce_mean(std::vector<double>{value})[0];
+  }
   // Keys must be the same on every rank.
   std::map<std::string, double> all_reduce_mean(const std::map<std::string, double>& values) const;
 

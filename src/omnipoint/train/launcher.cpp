@@ -1,11 +1,11 @@
 #include "omnipoint/train/launcher.h"
 
 #include <arpa/inet.h>
-#include <csignal>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <csignal>
 
 #include <cerrno>
 #include <chrono>
@@ -30,12 +30,13 @@ int exit_code(int status) {
 
 // This process's environment without the variables the launcher sets, then `added`.
 std::vector<std::string> child_environment(const std::vector<std::string>& added) {
-  static const char* const kSet[] = {"RANK=", "LOCAL_RANK=", "WORLD_SIZE=", "LOCAL_WORLD_SIZE=", "MASTER_ADDR=",
-                                     "MASTER_PORT="};
+  static const char* const kSet[] = {
+      "RANK=", "LOCAL_RANK=", "WORLD_SIZE=", "LOCAL_WORLD_SIZE=", "MASTER_ADDR=", "MASTER_PORT="};
   std::vector<std::string> environment;
   for (char** entry = environ; *entry != nullptr; ++entry) {
     bool replaced = false;
-    for (const char* prefix : kSet) replaced = replaced || std::strncmp(*entry, prefix, std::strlen(prefix)) == 0;
+    for (const char* prefix : kSet)
+      replaced = replaced || std::strncmp(*entry, prefix, std::strlen(prefix)) == 0;
     if (!replaced) environment.emplace_back(*entry);
   }
   environment.insert(environment.end(), added.begin(), added.end());
@@ -75,14 +76,18 @@ void stop_all(std::vector<pid_t>& running) {
 std::string current_executable() {
   std::string path(PATH_MAX, '\0');
   const ssize_t length = readlink("/proc/self/exe", path.data(), path.size());
-  if (length <= 0) throw std::runtime_error("launcher: cannot read /proc/self/exe: " + std::string(std::strerror(errno)));
+  if (length <= 0)
+    throw std::runtime_error("launcher: cannot read /proc/self/exe: " +
+                             std::string(std::strerror(errno)));
   path.resize(static_cast<size_t>(length));
   return path;
 }
 
 int free_port() {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) throw std::runtime_error("launcher: cannot open a socket: " + std::string(std::strerror(errno)));
+  if (fd < 0)
+    throw std::runtime_error("launcher: cannot open a socket: " +
+                             std::string(std::strerror(errno)));
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
@@ -92,12 +97,17 @@ int free_port() {
                   getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) == 0;
   const int error = errno;
   close(fd);
-  if (!ok) throw std::runtime_error("launcher: cannot find a free port on 127.0.0.1: " + std::string(std::strerror(error)));
+  if (!ok)
+    throw std::runtime_error("launcher: cannot find a free port on 127.0.0.1: " +
+                             std::string(std::strerror(error)));
   return ntohs(address.sin_port);
 }
 
-int launch_local(int nproc, const std::vector<std::string>& arguments, const std::string& executable) {
-  if (nproc < 1) throw std::invalid_argument("launch_local: --nproc " + std::to_string(nproc) + ": expected at least 1");
+int launch_local(int nproc, const std::vector<std::string>& arguments,
+                 const std::string& executable) {
+  if (nproc < 1)
+    throw std::invalid_argument("launch_local: --nproc " + std::to_string(nproc) +
+                                ": expected at least 1");
   const std::string port = std::to_string(free_port());
   std::vector<pid_t> running;
   for (int rank = 0; rank < nproc; ++rank) {
@@ -105,8 +115,9 @@ int launch_local(int nproc, const std::vector<std::string>& arguments, const std
     std::vector<std::string> argv_strings{executable};
     argv_strings.insert(argv_strings.end(), arguments.begin(), arguments.end());
     std::vector<std::string> env_strings = child_environment(
-        {"RANK=" + std::to_string(rank), "LOCAL_RANK=" + std::to_string(rank), "WORLD_SIZE=" + std::to_string(nproc),
-         "LOCAL_WORLD_SIZE=" + std::to_string(nproc), "MASTER_ADDR=127.0.0.1", "MASTER_PORT=" + port});
+        {"RANK=" + std::to_string(rank), "LOCAL_RANK=" + std::to_string(rank),
+         "WORLD_SIZE=" + std::to_string(nproc), "LOCAL_WORLD_SIZE=" + std::to_string(nproc),
+         "MASTER_ADDR=127.0.0.1", "MASTER_PORT=" + port});
     std::vector<char*> argv = c_strings(argv_strings);
     std::vector<char*> envp = c_strings(env_strings);
     const pid_t pid = fork();
@@ -117,8 +128,8 @@ int launch_local(int nproc, const std::vector<std::string>& arguments, const std
     if (pid < 0) {
       const int error = errno;
       stop_all(running);
-      throw std::runtime_error("launcher: cannot start rank " + std::to_string(rank) + " of " + executable + ": " +
-                               std::strerror(error));
+      throw std::runtime_error("launcher: cannot start rank " + std::to_string(rank) + " of " +
+                               executable + ": " + std::strerror(error));
     }
     running.push_back(pid);
   }

@@ -16,7 +16,9 @@ void check_map(const at::Tensor& tensor, int64_t dims, const char* what) {
                                 std::to_string(dims) + "-D batched tensor");
 }
 
-at::Tensor positive_finite(const at::Tensor& scale) { return at::isfinite(scale) & (scale > 0); }
+at::Tensor positive_finite(const at::Tensor& scale) {
+  return at::isfinite(scale) & (scale > 0);
+}
 
 // The angle between vectors (..., 3), atan2(|a×b|, a·b); exact near 0 and π.
 at::Tensor angle_between(const at::Tensor& a, const at::Tensor& b) {
@@ -53,14 +55,14 @@ at::Tensor alignment_scale(const at::Tensor& pred_points, const at::Tensor& gt_p
                                    : inverse_distance_weight(gt_points.unsqueeze(-1), mask);
   at::Tensor scale;
   if (points) {
-    scale = geometry::fit_points_scale_l1(pred_points.detach().reshape({batch, -1, 3}),
-                                          gt_points.reshape({batch, -1, 3}), weight.reshape({batch, -1}),
-                                          mask.reshape({batch, -1}), trunc)
+    scale = geometry::fit_points_scale_l1(
+                pred_points.detach().reshape({batch, -1, 3}), gt_points.reshape({batch, -1, 3}),
+                weight.reshape({batch, -1}), mask.reshape({batch, -1}), trunc)
                 .scale;
   } else {
-    scale = geometry::fit_scale_l1_truncated(pred_points.detach().reshape({batch, -1}),
-                                             gt_points.reshape({batch, -1}), weight.reshape({batch, -1}),
-                                             trunc, mask.reshape({batch, -1}))
+    scale = geometry::fit_scale_l1_truncated(
+                pred_points.detach().reshape({batch, -1}), gt_points.reshape({batch, -1}),
+                weight.reshape({batch, -1}), trunc, mask.reshape({batch, -1}))
                 .scale;
   }
   return at::where(positive_finite(scale), scale, at::full_like(scale, NAN));
@@ -72,14 +74,16 @@ at::Tensor aligned_l1_loss(const at::Tensor& pred, const at::Tensor& gt, const a
   const at::Tensor safe_scale = at::where(valid, scale, at::zeros_like(scale)).detach();
   at::Tensor error;
   if (pred.dim() == 4) {
-    error = ((safe_scale.view({-1, 1, 1, 1}) * pred - gt).abs() * weight.unsqueeze(-1)).mean({1, 2, 3});
+    error =
+        ((safe_scale.view({-1, 1, 1, 1}) * pred - gt).abs() * weight.unsqueeze(-1)).mean({1, 2, 3});
   } else {
     error = ((safe_scale.view({-1, 1, 1}) * pred - gt).abs() * weight).mean({1, 2});
   }
   return at::where(valid, error, at::zeros_like(error));
 }
 
-at::Tensor ray_loss(const at::Tensor& pred_rays, const at::Tensor& gt_rays, const at::Tensor& valid) {
+at::Tensor ray_loss(const at::Tensor& pred_rays, const at::Tensor& gt_rays,
+                    const at::Tensor& valid) {
   check_map(pred_rays, 4, "predicted rays");
   return ((pred_rays - gt_rays).abs().sum(-1) * valid.to(pred_rays.scalar_type())).mean({1, 2});
 }
@@ -95,17 +99,20 @@ at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask) {
   check_map(distance, 3, "predicted distance");
   const at::Tensor weight = mask.to(distance.scalar_type());
   const at::Tensor count = weight.sum({1, 2});
-  const at::Tensor log_distance = at::where(mask, distance.clamp_min(1e-12).log(), at::zeros_like(distance));
+  const at::Tensor log_distance =
+      at::where(mask, distance.clamp_min(1e-12).log(), at::zeros_like(distance));
   const at::Tensor mean = log_distance.sum({1, 2}) / count.clamp_min(1.0);
   return at::where(count > 0, mean.square(), at::zeros_like(mean));
 }
 
-at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points, const at::Tensor& mask) {
+at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
+                       const at::Tensor& mask) {
   check_map(pred_points, 4, "predicted points");
   const int64_t height = pred_points.size(1), width = pred_points.size(2);
   using at::indexing::Slice;
   const auto corner = [](const at::Tensor& map, int row, int col) {
-    return map.index({Slice(), Slice(row, map.size(1) - 1 + row), Slice(col, map.size(2) - 1 + col)});
+    return map.index(
+        {Slice(), Slice(row, map.size(1) - 1 + row), Slice(col, map.size(2) - 1 + col)});
   };
   const double min_angle = M_PI / 180.0, max_angle = M_PI / 2.0, beta = 3.0 * M_PI / 180.0;
   // MoGe clamps the angle at 1° (no gradient below it); the constant it leaves at a perfect
@@ -114,21 +121,26 @@ at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_point
   // The four triangles of a 2×2 cell (lu, ru, ld, rd), as MoGe: each is the cross product of the
   // edges at one corner, present when its three corners are labelled.
   const auto triangles = [&](const at::Tensor& p) {
-    const at::Tensor lu = corner(p, 0, 0), ru = corner(p, 0, 1), ld = corner(p, 1, 0), rd = corner(p, 1, 1);
+    const at::Tensor lu = corner(p, 0, 0), ru = corner(p, 0, 1), ld = corner(p, 1, 0),
+                     rd = corner(p, 1, 1);
     return std::vector<at::Tensor>{at::cross(ru - rd, ld - rd, -1), at::cross(lu - ru, rd - ru, -1),
-                                   at::cross(ld - lu, ru - lu, -1), at::cross(rd - ld, lu - ld, -1)};
+                                   at::cross(ld - lu, ru - lu, -1),
+                                   at::cross(rd - ld, lu - ld, -1)};
   };
   const at::Tensor mlu = corner(mask, 0, 0), mru = corner(mask, 0, 1), mld = corner(mask, 1, 0),
                    mrd = corner(mask, 1, 1);
-  const std::vector<at::Tensor> masks{mru & mld & mrd, mlu & mrd & mru, mld & mru & mlu, mrd & mlu & mld};
+  const std::vector<at::Tensor> masks{mru & mld & mrd, mlu & mrd & mru, mld & mru & mlu,
+                                      mrd & mlu & mld};
   const std::vector<at::Tensor> pred = triangles(pred_points), gt = triangles(gt_points);
   at::Tensor loss = at::zeros({pred_points.size(0), height - 1, width - 1}, pred_points.options());
   for (size_t k = 0; k < 4; ++k) {
     // Unlabelled triangles get a fixed non-degenerate pair so that no 0/0 reaches the gradient.
     const at::Tensor m = masks[k].unsqueeze(-1);
-    const at::Tensor unit = at::zeros({3}, pred_points.options()).index_fill_(0, at::tensor({2L}), 1.0);
+    const at::Tensor unit =
+        at::zeros({3}, pred_points.options()).index_fill_(0, at::tensor({2L}), 1.0);
     const at::Tensor angle = angle_between(at::where(m, pred[k], unit), at::where(m, gt[k], unit));
-    loss = loss + masks[k].to(loss.scalar_type()) * (smooth(angle.clamp(min_angle, max_angle), beta) - floor);
+    loss = loss + masks[k].to(loss.scalar_type()) *
+                      (smooth(angle.clamp(min_angle, max_angle), beta) - floor);
   }
   return loss.mean({1, 2}) / (4.0 * static_cast<double>(std::max(height, width)));
 }
@@ -139,7 +151,8 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
                       const LocalLossOptions& options, at::Generator generator) {
   check_map(pred_points, 4, "predicted points");
   if (level <= 0) throw std::invalid_argument("local loss: the level must be positive");
-  const int64_t batch = pred_points.size(0), height = pred_points.size(1), width = pred_points.size(2);
+  const int64_t batch = pred_points.size(0), height = pred_points.size(1),
+                width = pred_points.size(2);
   const auto float_options = pred_points.options();
   const auto long_options = at::TensorOptions().dtype(at::kLong).device(pred_points.device());
   at::Tensor loss = at::zeros({batch}, float_options);
@@ -153,7 +166,8 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
   for (int64_t b = 0; b < batch; ++b) {
     const at::Tensor labelled = mask_cpu[b].reshape({-1}).nonzero().squeeze(1);
     if (labelled.numel() == 0) continue;
-    const at::Tensor pick = at::randint(labelled.numel(), {options.patches_per_item}, generator, at::kLong);
+    const at::Tensor pick =
+        at::randint(labelled.numel(), {options.patches_per_item}, generator, at::kLong);
     anchor_pixels.push_back(labelled.index_select(0, pick));
     anchor_items.push_back(at::full({options.patches_per_item}, b, at::kLong));
   }
@@ -166,11 +180,13 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
   const at::Tensor offsets = at::arange(-radius_2d, radius_2d + 1, long_options);
   const at::Tensor patch_i = anchor_i.view({-1, 1, 1}) + offsets.view({1, -1, 1});
   const at::Tensor patch_j = anchor_j.view({-1, 1, 1}) + offsets.view({1, 1, -1});
-  const at::Tensor inside = (patch_i >= 0) & (patch_i < height) & (patch_j >= 0) & (patch_j < width);
+  const at::Tensor inside =
+      (patch_i >= 0) & (patch_i < height) & (patch_j >= 0) & (patch_j < width);
   const at::Tensor flat = (item.view({-1, 1, 1}) * height + patch_i.clamp(0, height - 1)) * width +
                           patch_j.clamp(0, width - 1);
   const auto gather = [&](const at::Tensor& map) {
-    const at::Tensor rows = map.reshape({batch * height * width, -1}).index_select(0, flat.reshape({-1}));
+    const at::Tensor rows =
+        map.reshape({batch * height * width, -1}).index_select(0, flat.reshape({-1}));
     return rows.view({num_patches, -1, map.dim() == 4 ? 3 : 1});
   };
   const at::Tensor gt_flat = gt_points.reshape({-1, 3});
@@ -189,7 +205,8 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
   const at::Tensor gt_patch = gather(gt_points);      // (P,n,3)
   const at::Tensor pred_patch = gather(pred_points);  // (P,n,3)
   at::Tensor patch_mask = inside.reshape({num_patches, -1}) & gather(mask).squeeze(-1);
-  patch_mask = patch_mask & ((gt_patch - gt_anchor.unsqueeze(1)).norm(2, {-1}) <= radius_3d.unsqueeze(1));
+  patch_mask =
+      patch_mask & ((gt_patch - gt_anchor.unsqueeze(1)).norm(2, {-1}) <= radius_3d.unsqueeze(1));
   const at::Tensor enough = patch_mask.sum(1) >= options.min_points;
 
   at::Tensor scale, shift;
@@ -197,12 +214,12 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
     at::NoGradGuard no_grad;
     const at::Tensor weight = at::ones({num_patches, gt_patch.size(1)}, float_options) /
                               radius_3d.clamp_min(1e-12).unsqueeze(1);
-    const geometry::AffineFit fit =
-        geometry::fit_points_affine_l1(pred_patch.detach(), gt_patch, weight, patch_mask & enough.unsqueeze(1));
+    const geometry::AffineFit fit = geometry::fit_points_affine_l1(
+        pred_patch.detach(), gt_patch, weight, patch_mask & enough.unsqueeze(1));
     const at::Tensor global = global_scale.index_select(0, item);
     const at::Tensor ratio = fit.scale / global;
-    const at::Tensor valid = enough & positive_finite(fit.scale) & positive_finite(global) & (ratio > 0.1) &
-                             (ratio < 10.0) & at::isfinite(fit.shift).all(-1);
+    const at::Tensor valid = enough & positive_finite(fit.scale) & positive_finite(global) &
+                             (ratio > 0.1) & (ratio < 10.0) & at::isfinite(fit.shift).all(-1);
     scale = at::where(valid, fit.scale, at::zeros_like(fit.scale));
     shift = at::where(valid.unsqueeze(-1), fit.shift, at::zeros_like(fit.shift));
     patch_mask = patch_mask & valid.unsqueeze(1);
@@ -212,17 +229,20 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
   const at::Tensor maskf = mask.to(pred_points.scalar_type());
   const at::Tensor inverse_sum = (maskf / gt_points.norm(2, {-1}).clamp_min(1e-12)).sum({1, 2});
   const at::Tensor harmonic = maskf.sum({1, 2}) / inverse_sum.clamp_min(1e-12);
-  const at::Tensor weight = patch_mask.to(pred_points.scalar_type()) /
-                            at::maximum(gt_patch.norm(2, {-1}), 0.1 * harmonic.index_select(0, item).unsqueeze(1));
+  const at::Tensor weight =
+      patch_mask.to(pred_points.scalar_type()) /
+      at::maximum(gt_patch.norm(2, {-1}), 0.1 * harmonic.index_select(0, item).unsqueeze(1));
   const at::Tensor aligned = scale.view({-1, 1, 1}) * pred_patch + shift.unsqueeze(1);
   const at::Tensor per_patch = ((aligned - gt_patch).abs() * weight.unsqueeze(-1)).mean({1, 2});
   return loss.index_add(0, item, per_patch) / static_cast<double>(options.patches_per_item);
 }
 
-at::Tensor mask_loss(const at::Tensor& logits, const at::Tensor& positive, const at::Tensor& negative) {
+at::Tensor mask_loss(const at::Tensor& logits, const at::Tensor& positive,
+                     const at::Tensor& negative) {
   check_map(logits, 3, "mask logits");
   const at::Tensor target = positive.to(logits.scalar_type());
-  const at::Tensor bce = at::binary_cross_entropy_with_logits(logits, target, {}, {}, at::Reduction::None);
+  const at::Tensor bce =
+      at::binary_cross_entropy_with_logits(logits, target, {}, {}, at::Reduction::None);
   return (bce * (positive | negative).to(logits.scalar_type())).mean({1, 2});
 }
 
@@ -239,7 +259,8 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
   const auto options = output.distance.options();
   const at::Tensor gt_rays = targets.rays.to(options);
   const at::Tensor mask = targets.mask.to(output.distance.device());
-  const at::Tensor gt_distance = at::where(mask, targets.distance.to(options), at::zeros_like(output.distance));
+  const at::Tensor gt_distance =
+      at::where(mask, targets.distance.to(options), at::zeros_like(output.distance));
   const at::Tensor gt_points = gt_distance.unsqueeze(-1) * gt_rays;
   const bool xyz = !output.ray_raw.defined();
   const PointLoss kind = xyz ? PointLoss::kNaive : config.point_loss;
@@ -247,11 +268,13 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
 
   // The scale-invariant point map the geometric terms see (losses.h).
   const at::Tensor own_points = output.distance.unsqueeze(-1) * output.rays;
-  const at::Tensor points = kind == PointLoss::kDecoupled ? output.distance.unsqueeze(-1) * gt_rays : own_points;
+  const at::Tensor points =
+      kind == PointLoss::kDecoupled ? output.distance.unsqueeze(-1) * gt_rays : own_points;
 
   Losses losses;
-  losses.scale = kind == PointLoss::kDisjoint ? alignment_scale(output.distance, gt_distance, mask, config.align_trunc)
-                                              : alignment_scale(points, gt_points, mask, config.align_trunc);
+  losses.scale = kind == PointLoss::kDisjoint
+                     ? alignment_scale(output.distance, gt_distance, mask, config.align_trunc)
+                     : alignment_scale(points, gt_points, mask, config.align_trunc);
   at::Tensor total = at::zeros({output.distance.size(0)}, options);
   const auto add = [&](const char* name, double weight, const at::Tensor& term) {
     losses.terms[name] = term;
@@ -260,24 +283,29 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
   if (w.point != 0.0) {
     const at::Tensor weight = inverse_distance_weight(gt_points, mask);
     add("point", w.point,
-        kind == PointLoss::kDisjoint ? aligned_l1_loss(output.distance, gt_distance, weight, losses.scale)
-                                     : aligned_l1_loss(points, gt_points, weight, losses.scale));
+        kind == PointLoss::kDisjoint
+            ? aligned_l1_loss(output.distance, gt_distance, weight, losses.scale)
+            : aligned_l1_loss(points, gt_points, weight, losses.scale));
   }
-  if (w.ray != 0.0 && !xyz) add("ray", w.ray, ray_loss(output.rays, gt_rays, gt_rays.abs().sum(-1) > 0));
+  if (w.ray != 0.0 && !xyz)
+    add("ray", w.ray, ray_loss(output.rays, gt_rays, gt_rays.abs().sum(-1) > 0));
   if (w.metric != 0.0 && targets.metric.defined())
     add("metric", w.metric,
-        metric_scale_loss(output.log_metric_scale, losses.scale, targets.metric.to(output.distance.device())));
+        metric_scale_loss(output.log_metric_scale, losses.scale,
+                          targets.metric.to(output.distance.device())));
   if (w.normal != 0.0) add("normal", w.normal, normal_loss(points, gt_points, mask));
   if (w.gauge != 0.0) add("gauge", w.gauge, gauge_loss(output.distance, mask));
   if (w.local != 0.0) {
     at::Tensor local = at::zeros_like(total);
     for (const int64_t level : config.local.levels)
-      local = local + local_loss(points, gt_points, gt_rays, mask, losses.scale, level, config.local, generator);
+      local = local + local_loss(points, gt_points, gt_rays, mask, losses.scale, level,
+                                 config.local, generator);
     add("local", w.local, local);
   }
   if (w.mask != 0.0) {
-    const at::Tensor negative = targets.mask_negative.defined() ? targets.mask_negative.to(mask.device())
-                                                                : at::zeros_like(mask);
+    const at::Tensor negative = targets.mask_negative.defined()
+                                    ? targets.mask_negative.to(mask.device())
+                                    : at::zeros_like(mask);
     add("mask", w.mask, mask_loss(output.mask_logits, mask, negative));
   }
   losses.total = total.mean();

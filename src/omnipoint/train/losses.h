@@ -77,9 +77,10 @@ struct LossTargets {
 };
 
 struct Losses {
-  at::Tensor total;                          // () mean over the batch of the weighted sum
-  std::map<std::string, at::Tensor> terms;   // "point", "ray", ...: (B) unweighted, computed terms only
-  at::Tensor scale;                          // (B) s*, NaN where undetermined
+  at::Tensor total;  // () mean over the batch of the weighted sum
+  std::map<std::string, at::Tensor>
+      terms;         // "point", "ray", ...: (B) unweighted, computed terms only
+  at::Tensor scale;  // (B) s*, NaN where undetermined
 };
 
 // The whole objective for one batch. Terms whose weight is 0 are not computed. `generator`
@@ -103,7 +104,8 @@ at::Tensor aligned_l1_loss(const at::Tensor& pred, const at::Tensor& gt, const a
                            const at::Tensor& scale);
 
 // mean over H·W of valid · ‖r̂ − r‖₁.
-at::Tensor ray_loss(const at::Tensor& pred_rays, const at::Tensor& gt_rays, const at::Tensor& valid);
+at::Tensor ray_loss(const at::Tensor& pred_rays, const at::Tensor& gt_rays,
+                    const at::Tensor& valid);
 
 // (log ŝ − log s*)² on items that are metric and have a positive finite s*; 0 elsewhere.
 at::Tensor metric_scale_loss(const at::Tensor& log_pred_scale, const at::Tensor& target_scale,
@@ -117,7 +119,8 @@ at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask);
 // every 2×2 pixel cell with three labelled corners, clamped to [1°, 90°], smoothed (Huber,
 // β = 3°), averaged over the cells and divided by 4·max(H, W). Scale-invariant. The constant
 // the clamp leaves at angle 0 is subtracted (zero for a perfect prediction; MoGe's gradients).
-at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points, const at::Tensor& mask);
+at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
+                       const at::Tensor& mask);
 
 // MoGe's local loss at one level: `patches_per_item` anchors drawn uniformly among the labelled
 // pixels, window radius ceil(0.5/level · diagonal) pixels, kept are the labelled pixels within
@@ -133,6 +136,7 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
 
 // Binary cross-entropy of the mask logits against positive (1) and negative (0) pixels, mean
 // over H·W; pixels that are neither contribute nothing.
-at::Tensor mask_loss(const at::Tensor& logits, const at::Tensor& positive, const at::Tensor& negative);
+at::Tensor mask_loss(const at::Tensor& logits, const at::Tensor& positive,
+                     const at::Tensor& negative);
 
 }  // namespace omnipoint::train

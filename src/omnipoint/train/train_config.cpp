@@ -20,7 +20,8 @@ const json& object_at(const json& parent, const char* key, const std::string& wh
   return value;
 }
 
-void check_keys(const json& object, const std::set<std::string>& allowed, const std::string& where) {
+void check_keys(const json& object, const std::set<std::string>& allowed,
+                const std::string& where) {
   for (const auto& item : object.items())
     if (!allowed.count(item.key())) fail(where, "unknown key \"" + item.key() + "\"");
 }
@@ -36,7 +37,8 @@ T value_or(const json& object, const char* key, T fallback, const std::string& w
 }
 
 template <typename T>
-std::array<T, 2> pair_or(const json& object, const char* key, std::array<T, 2> fallback, const std::string& where) {
+std::array<T, 2> pair_or(const json& object, const char* key, std::array<T, 2> fallback,
+                         const std::string& where) {
   if (!object.contains(key)) return fallback;
   const json& value = object.at(key);
   if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
@@ -58,9 +60,10 @@ int64_t TrainConfig::total_steps() const {
 
 TrainConfig TrainConfig::from_json(const json& root) {
   if (!root.is_object()) fail("file", "expected a JSON object");
-  check_keys(root, {"output_dir", "seed", "threads", "model", "init", "data", "conditions", "augment", "loss",
-                    "optimizer", "ema", "stages", "checkpoint_every", "log_every", "eval_every", "eval_batches",
-                    "max_nonfinite_steps"},
+  check_keys(root,
+             {"output_dir", "seed", "threads", "model", "init", "data", "conditions", "augment",
+              "loss", "optimizer", "ema", "stages", "checkpoint_every", "log_every", "eval_every",
+              "eval_batches", "max_nonfinite_steps"},
              "config");
   TrainConfig c;
   c.output_dir = value_or<std::string>(root, "output_dir", c.output_dir, "config");
@@ -74,14 +77,17 @@ TrainConfig TrainConfig::from_json(const json& root) {
   c.init_from = value_or<std::string>(init, "from", c.init_from, "init");
   c.init_path = value_or<std::string>(init, "path", "", "init");
   c.init_output = value_or<std::string>(init, "output", c.init_output, "init");
-  require(c.init_from == "scratch" || c.init_from == "dinov2" || c.init_from == "moge2" || c.init_from == "omnipoint",
+  require(c.init_from == "scratch" || c.init_from == "dinov2" || c.init_from == "moge2" ||
+              c.init_from == "omnipoint",
           "init.from", "expected scratch, dinov2, moge2 or omnipoint, got \"" + c.init_from + "\"");
-  require(c.init_from == "scratch" || !c.init_path.empty(), "init.path", "required to initialise from " + c.init_from);
+  require(c.init_from == "scratch" || !c.init_path.empty(), "init.path",
+          "required to initialise from " + c.init_from);
   require((c.init_from != "scratch" && c.init_from != "dinov2") || !c.model.is_null(), "model",
           "required (the network configuration) to initialise from " + c.init_from);
   if (c.init_from == "omnipoint" && !c.model.is_null())
     check_keys(c.model, {"conditioning", "num_tokens_range"},
-               "model (from an OmniPoint checkpoint only \"conditioning\" and \"num_tokens_range\" may change)");
+               "model (from an OmniPoint checkpoint only \"conditioning\" and \"num_tokens_range\" "
+               "may change)");
 
   const json& data = object_at(root, "data", "config");
   check_keys(data, {"batch_size", "image_size", "num_tokens", "datasets"}, "data");
@@ -90,9 +96,11 @@ TrainConfig TrainConfig::from_json(const json& root) {
   const auto size = pair_or<int64_t>(data, "image_size", {c.width, c.height}, "data");
   c.width = size[0];
   c.height = size[1];
-  require(c.width >= 2 && c.height >= 2, "data.image_size", "must be [width, height], at least 2 each");
+  require(c.width >= 2 && c.height >= 2, "data.image_size",
+          "must be [width, height], at least 2 each");
   c.num_tokens = pair_or<int64_t>(data, "num_tokens", c.num_tokens, "data");
-  require(c.num_tokens[0] >= 1 && c.num_tokens[0] <= c.num_tokens[1], "data.num_tokens", "must be [min, max], 1 <= min <= max");
+  require(c.num_tokens[0] >= 1 && c.num_tokens[0] <= c.num_tokens[1], "data.num_tokens",
+          "must be [min, max], 1 <= min <= max");
   if (!data.contains("datasets") || !data.at("datasets").is_array() || data.at("datasets").empty())
     fail("data.datasets", "expected a non-empty array of data sources");
   for (const json& entry : data.at("datasets")) {
@@ -102,15 +110,18 @@ TrainConfig TrainConfig::from_json(const json& root) {
     DatasetSource source;
     source.weight = value_or<double>(entry, "weight", 1.0, where);
     require(source.weight > 0, where + ".weight", "must be positive");
-    require(entry.contains("synth") != entry.contains("folders"), where, "needs exactly one of \"synth\" or \"folders\"");
+    require(entry.contains("synth") != entry.contains("folders"), where,
+            "needs exactly one of \"synth\" or \"folders\"");
     if (entry.contains("synth")) {
       const json& synth = object_at(entry, "synth", where);
       check_keys(synth, {"scenes", "cameras"}, where + ".synth");
       source.synth = true;
-      source.synth_source.scenes = value_or<std::vector<std::string>>(synth, "scenes", {"indoor", "outdoor", "object"}, where + ".synth");
-      source.synth_source.cameras = value_or<std::vector<std::string>>(synth, "cameras", {}, where + ".synth");
-      require(!source.synth_source.scenes.empty() && !source.synth_source.cameras.empty(), where + ".synth",
-              "needs non-empty \"scenes\" and \"cameras\"");
+      source.synth_source.scenes = value_or<std::vector<std::string>>(
+          synth, "scenes", {"indoor", "outdoor", "object"}, where + ".synth");
+      source.synth_source.cameras =
+          value_or<std::vector<std::string>>(synth, "cameras", {}, where + ".synth");
+      require(!source.synth_source.scenes.empty() && !source.synth_source.cameras.empty(),
+              where + ".synth", "needs non-empty \"scenes\" and \"cameras\"");
     } else {
       source.folders = value_or<std::string>(entry, "folders", "", where);
     }
@@ -119,33 +130,42 @@ TrainConfig TrainConfig::from_json(const json& root) {
 
   const json& conditions = object_at(root, "conditions", "config");
   check_keys(conditions, {"probability", "sparse_ratio"}, "conditions");
-  c.condition_probability = value_or<double>(conditions, "probability", c.condition_probability, "conditions");
-  require(c.condition_probability >= 0 && c.condition_probability <= 1, "conditions.probability", "must lie in [0, 1]");
+  c.condition_probability =
+      value_or<double>(conditions, "probability", c.condition_probability, "conditions");
+  require(c.condition_probability >= 0 && c.condition_probability <= 1, "conditions.probability",
+          "must lie in [0, 1]");
   c.sparse_ratio = pair_or<double>(conditions, "sparse_ratio", c.sparse_ratio, "conditions");
   require(c.sparse_ratio[0] > 0 && c.sparse_ratio[0] <= c.sparse_ratio[1] && c.sparse_ratio[1] <= 1,
           "conditions.sparse_ratio", "must be [min, max] with 0 < min <= max <= 1");
 
   const json& augment = object_at(root, "augment", "config");
-  check_keys(augment, {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher", "a2p_teacher_tokens"},
-             "augment");
+  check_keys(
+      augment,
+      {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher", "a2p_teacher_tokens"},
+      "augment");
   c.p2a = value_or<bool>(augment, "p2a", false, "augment");
   c.p2a_probability = value_or<double>(augment, "p2a_probability", c.p2a_probability, "augment");
-  require(c.p2a_probability >= 0 && c.p2a_probability <= 1, "augment.p2a_probability", "must lie in [0, 1]");
+  require(c.p2a_probability >= 0 && c.p2a_probability <= 1, "augment.p2a_probability",
+          "must lie in [0, 1]");
   c.a2p = value_or<bool>(augment, "a2p", false, "augment");
   c.a2p_probability = value_or<double>(augment, "a2p_probability", c.a2p_probability, "augment");
-  require(c.a2p_probability >= 0 && c.a2p_probability <= 1, "augment.a2p_probability", "must lie in [0, 1]");
+  require(c.a2p_probability >= 0 && c.a2p_probability <= 1, "augment.a2p_probability",
+          "must lie in [0, 1]");
   c.a2p_teacher = value_or<std::string>(augment, "a2p_teacher", "", "augment");
   c.a2p_teacher_tokens = value_or<int64_t>(augment, "a2p_teacher_tokens", 0, "augment");
   require(!c.a2p || !c.a2p_teacher.empty(), "augment.a2p_teacher",
           "A2P needs a teacher: the path of an OmniPoint checkpoint (e.g. the stage-1 model)");
-  require(c.a2p_teacher_tokens >= 0, "augment.a2p_teacher_tokens", "must be >= 0 (0: the largest of num_tokens)");
+  require(c.a2p_teacher_tokens >= 0, "augment.a2p_teacher_tokens",
+          "must be >= 0 (0: the largest of num_tokens)");
 
   const json& loss = object_at(root, "loss", "config");
   check_keys(loss, {"point_loss", "align_trunc", "weights", "local"}, "loss");
-  c.loss.point_loss = parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
+  c.loss.point_loss =
+      parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
   c.loss.align_trunc = value_or<double>(loss, "align_trunc", c.loss.align_trunc, "loss");
   const json& weights = object_at(loss, "weights", "loss");
-  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask", "gauge"}, "loss.weights");
+  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask", "gauge"},
+             "loss.weights");
   LossWeights& w = c.loss.weights;
   w.point = value_or<double>(weights, "point", w.point, "loss.weights");
   w.ray = value_or<double>(weights, "ray", w.ray, "loss.weights");
@@ -156,10 +176,14 @@ TrainConfig TrainConfig::from_json(const json& root) {
   w.gauge = value_or<double>(weights, "gauge", w.gauge, "loss.weights");
   const json& local = object_at(loss, "local", "loss");
   check_keys(local, {"levels", "patches_per_item", "min_points"}, "loss.local");
-  c.loss.local.levels = value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");
-  c.loss.local.patches_per_item = value_or<int64_t>(local, "patches_per_item", c.loss.local.patches_per_item, "loss.local");
-  c.loss.local.min_points = value_or<int64_t>(local, "min_points", c.loss.local.min_points, "loss.local");
-  for (const int64_t level : c.loss.local.levels) require(level > 0, "loss.local.levels", "must be positive");
+  c.loss.local.levels =
+      value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");
+  c.loss.local.patches_per_item =
+      value_or<int64_t>(local, "patches_per_item", c.loss.local.patches_per_item, "loss.local");
+  c.loss.local.min_points =
+      value_or<int64_t>(local, "min_points", c.loss.local.min_points, "loss.local");
+  for (const int64_t level : c.loss.local.levels)
+    require(level > 0, "loss.local.levels", "must be positive");
   require(c.loss.local.patches_per_item >= 1, "loss.local.patches_per_item", "must be at least 1");
 
   const json& optimizer = object_at(root, "optimizer", "config");
@@ -179,7 +203,8 @@ TrainConfig TrainConfig::from_json(const json& root) {
   for (const json& entry : root.at("stages")) {
     const std::string where = "stages[" + std::to_string(c.stages.size()) + "]";
     if (!entry.is_object()) fail(where, "expected a JSON object");
-    check_keys(entry, {"stage", "steps", "lr_backbone", "lr_heads", "decay_every", "decay_factor"}, where);
+    check_keys(entry, {"stage", "steps", "lr_backbone", "lr_heads", "decay_every", "decay_factor"},
+               where);
     StageConfig stage;
     stage.stage = value_or<int>(entry, "stage", stage.stage, where);
     require(stage.stage >= 1 && stage.stage <= 3, where + ".stage", "must be 1, 2 or 3");
@@ -197,9 +222,10 @@ TrainConfig TrainConfig::from_json(const json& root) {
   c.log_every = value_or<int64_t>(root, "log_every", c.log_every, "config");
   c.eval_every = value_or<int64_t>(root, "eval_every", c.eval_every, "config");
   c.eval_batches = value_or<int64_t>(root, "eval_batches", c.eval_batches, "config");
-  c.max_nonfinite_steps = value_or<int64_t>(root, "max_nonfinite_steps", c.max_nonfinite_steps, "config");
-  require(c.checkpoint_every >= 0 && c.log_every >= 1 && c.eval_every >= 0 && c.eval_batches >= 1, "config",
-          "checkpoint_every/eval_every must be >= 0, log_every/eval_batches >= 1");
+  c.max_nonfinite_steps =
+      value_or<int64_t>(root, "max_nonfinite_steps", c.max_nonfinite_steps, "config");
+  require(c.checkpoint_every >= 0 && c.log_every >= 1 && c.eval_every >= 0 && c.eval_batches >= 1,
+          "config", "checkpoint_every/eval_every must be >= 0, log_every/eval_batches >= 1");
   require(c.max_nonfinite_steps >= 1, "max_nonfinite_steps", "must be at least 1");
   return c;
 }

@@ -66,7 +66,7 @@ struct TrainConfig {
   uint64_t seed = 0;
   int threads = 1;
 
-  nlohmann::json model;            // OmniPointConfig JSON
+  nlohmann::json model;  // OmniPointConfig JSON
   std::string init_from = "scratch";
   std::string init_path;
   std::string init_output = "ray_distance";
@@ -79,10 +79,10 @@ struct TrainConfig {
   double condition_probability = 0.9;
   std::array<double, 2> sparse_ratio{0.0005, 0.001};
   bool p2a = false, a2p = false;
-  double p2a_probability = 0.02;  // share of perspective items rendered into a virtual wide camera
-  double a2p_probability = 1.0;   // share of wide-FoV items whose labels are replaced by A2P's
-  std::string a2p_teacher;        // OmniPoint checkpoint that pseudo-labels the A2P views
-  int64_t a2p_teacher_tokens = 0; // the teacher's token budget; 0: num_tokens' maximum
+  double p2a_probability = 0.02;   // share of perspective items rendered into a virtual wide camera
+  double a2p_probability = 1.0;    // share of wide-FoV items whose labels are replaced by A2P's
+  std::string a2p_teacher;         // OmniPoint checkpoint that pseudo-labels the A2P views
+  int64_t a2p_teacher_tokens = 0;  // the teacher's token budget; 0: num_tokens' maximum
 
   LossConfig loss;
   double weight_decay = 0.01;

@@ -24,8 +24,12 @@ const DistributedContext kOneProcess;  // the default: one process, no communica
 constexpr uint64_t kLossStream = 2;  // local-loss anchors
 constexpr uint64_t kEvalStream = 1;  // evaluation batches
 
-bool is_backbone(const std::string& name) { return name.rfind("encoder.backbone.", 0) == 0; }
-bool is_mask_head(const std::string& name) { return name.rfind("mask_head.", 0) == 0; }
+bool is_backbone(const std::string& name) {
+  return name.rfind("encoder.backbone.", 0) == 0;
+}
+bool is_mask_head(const std::string& name) {
+  return name.rfind("mask_head.", 0) == 0;
+}
 
 std::string state_key(const at::Tensor& parameter) {
   return c10::guts::to_string(parameter.unsafeGetTensorImpl());
@@ -42,7 +46,8 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     // Fine-tuning with other condition branches (the state-embedding and smoothing ablations
     // start from one stage-1 model) or another default token budget: what both share loads, a
     // branch the file lacks starts as constructed (zero fusion), one the config drops is left out.
-    nlohmann::json merged = nlohmann::json::parse(config_from_metadata(file.metadata).to_json_text());
+    nlohmann::json merged =
+        nlohmann::json::parse(config_from_metadata(file.metadata).to_json_text());
     for (const auto& [key, value] : config.model.items()) merged[key] = value;
     OmniPointModel network(OmniPointConfig::from_json(merged));
     const LoadReport report = load_state_dict(*network, file.tensors, LoadMode::kPartial);
@@ -51,7 +56,8 @@ model::OmniPointModel build_model(const TrainConfig& config) {
         throw std::invalid_argument("init.path \"" + config.init_path + "\": lacks \"" + name +
                                     "\", which is not a conditioning tensor");
     if (!report.mismatched.empty())
-      throw std::invalid_argument("init.path \"" + config.init_path + "\": \"" + report.mismatched.front() +
+      throw std::invalid_argument("init.path \"" + config.init_path + "\": \"" +
+                                  report.mismatched.front() +
                                   "\" has another shape than the config's");
     return network;
   }
@@ -59,7 +65,8 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
     const auto found = file.metadata.find("config");
     if (found == file.metadata.end())
-      throw std::invalid_argument("init.path \"" + config.init_path + "\": a MoGe-2 checkpoint needs its config in the metadata");
+      throw std::invalid_argument("init.path \"" + config.init_path +
+                                  "\": a MoGe-2 checkpoint needs its config in the metadata");
     const MoGe2Config moge2 = MoGe2Config::from_json_text(found->second);
     OmniPointConfig omni_config = OmniPointConfig::from_moge2(
         moge2, config.init_output == "xyz" ? OutputKind::kXyz : OutputKind::kRayDistance);
@@ -70,14 +77,16 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     return network;
   }
   OmniPointModel network(OmniPointConfig::from_json(config.model));
-  if (config.init_from == "dinov2") init_from_dinov2(*network, io::read_safetensors(config.init_path).tensors);
+  if (config.init_from == "dinov2")
+    init_from_dinov2(*network, io::read_safetensors(config.init_path).tensors);
   return network;
 }
 
 Trainer::Trainer(TrainConfig config, model::OmniPointModel network)
     : Trainer(std::move(config), std::move(network), kOneProcess) {}
 
-Trainer::Trainer(TrainConfig config, model::OmniPointModel network, const DistributedContext& distributed)
+Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
+                 const DistributedContext& distributed)
     : config_(std::move(config)),
       model_(std::move(network)),
       distributed_(distributed),
@@ -125,7 +134,9 @@ void Trainer::configure_stage(int index) {
     }
   }
   torch::optim::AdamWOptions defaults(config_.stages[index].lr_heads);
-  defaults.betas({config_.betas[0], config_.betas[1]}).eps(config_.eps).weight_decay(config_.weight_decay);
+  defaults.betas({config_.betas[0], config_.betas[1]})
+      .eps(config_.eps)
+      .weight_decay(config_.weight_decay);
   std::vector<torch::optim::OptimizerParamGroup> groups;
   group_names_.clear();
   group_kinds_.clear();
@@ -162,9 +173,10 @@ StepRecord Trainer::train_step() {
   if (index != current_stage_) configure_stage(index);
   const StageConfig& stage = config_.stages[index];
   const int64_t in_stage = step_ - stage_start(index);
-  const double decay = stage.decay_every > 0
-                           ? std::pow(stage.decay_factor, static_cast<double>(in_stage / stage.decay_every))
-                           : 1.0;
+  const double decay =
+      stage.decay_every > 0
+          ? std::pow(stage.decay_factor, static_cast<double>(in_stage / stage.decay_every))
+          : 1.0;
   StepRecord record;
   record.stage = stage.stage;
   record.lr_backbone = stage.lr_backbone * decay;
@@ -198,7 +210,8 @@ StepRecord Trainer::train_step() {
     // A gradient missing on some ranks counts as zeros there (distributed.h), so the ranks
     // step exactly the parameters one process on the whole batch would step.
     distributed_.all_reduce_gradients(parameters);
-    const double max_norm = config_.grad_clip > 0 ? config_.grad_clip : std::numeric_limits<double>::infinity();
+    const double max_norm =
+        config_.grad_clip > 0 ? config_.grad_clip : std::numeric_limits<double>::infinity();
     record.grad_norm = torch::nn::utils::clip_grad_norm_(parameters, max_norm);
     finite = std::isfinite(record.grad_norm);
   }
@@ -207,17 +220,20 @@ StepRecord Trainer::train_step() {
     at::NoGradGuard no_grad;
     for (const auto& [name, tensor] : model::state_dict(*model_)) {
       at::Tensor& average = ema_.at(name);
-      if (average.is_floating_point()) average.mul_(config_.ema_decay).add_(tensor, 1.0 - config_.ema_decay);
-      else average.copy_(tensor);
+      if (average.is_floating_point())
+        average.mul_(config_.ema_decay).add_(tensor, 1.0 - config_.ema_decay);
+      else
+        average.copy_(tensor);
     }
     consecutive_nonfinite_ = 0;
   } else {
     optimizer_->zero_grad();
     record.skipped = true;
     if (++consecutive_nonfinite_ >= config_.max_nonfinite_steps)
-      throw std::runtime_error("training stopped at step " + std::to_string(step_ + 1) + ": " +
-                               std::to_string(consecutive_nonfinite_) +
-                               " steps in a row had a non-finite loss or gradients (max_nonfinite_steps)");
+      throw std::runtime_error(
+          "training stopped at step " + std::to_string(step_ + 1) + ": " +
+          std::to_string(consecutive_nonfinite_) +
+          " steps in a row had a non-finite loss or gradients (max_nonfinite_steps)");
   }
   record.step = ++step_;
   return record;
@@ -231,7 +247,8 @@ std::map<std::string, double> Trainer::evaluate() {
   for (int64_t b = 0; b < config_.eval_batches; ++b) {
     const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream);
     const model::OmniPointOutput output = forward(batch, conditions);
-    at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(derived_seed(config_.seed, kEvalStream, b));
+    at::Generator generator =
+        at::make_generator<at::CPUGeneratorImpl>(derived_seed(config_.seed, kEvalStream, b));
     const Losses losses = compute_losses(output, batch.targets, config_.loss, generator);
     sums["loss"] += losses.total.item<double>();
     for (const auto& [name, term] : losses.terms) sums[name] += term.mean().item<double>();
@@ -250,7 +267,8 @@ std::map<std::string, double> Trainer::evaluate() {
       prediction.depth = prediction.points.norm(2, -1);
       prediction.is_metric = true;
       const eval::Metrics metrics = eval::compute_metrics(prediction, truth);
-      for (const auto& [entry, key] : {std::pair{"points_scale_invariant", "points"}, {"points_metric", "metric"}}) {
+      for (const auto& [entry, key] :
+           {std::pair{"points_scale_invariant", "points"}, {"points_metric", "metric"}}) {
         const auto found = metrics.entries.find(entry);
         if (found == metrics.entries.end() || !std::isfinite(found->second.rel)) continue;
         sums[std::string(key) + "_rel"] += found->second.rel;
@@ -268,7 +286,8 @@ std::map<std::string, double> Trainer::evaluate() {
 
 TrainState Trainer::state() const {
   TrainState state;
-  for (const auto& [name, tensor] : model::state_dict(*model_)) state.model[name] = tensor.to(at::kCPU).clone();
+  for (const auto& [name, tensor] : model::state_dict(*model_))
+    state.model[name] = tensor.to(at::kCPU).clone();
   for (const auto& [name, tensor] : ema_) state.ema[name] = tensor.to(at::kCPU).clone();
   if (optimizer_) {
     const auto& params_state = optimizer_->state();
@@ -300,19 +319,22 @@ void Trainer::restore(const TrainState& state) {
   try {
     model::load_state_dict(*model_, state.model, model::LoadMode::kStrict);
   } catch (const std::runtime_error& error) {
-    throw std::invalid_argument(std::string("resume: the checkpoint's model does not fit: ") + error.what());
+    throw std::invalid_argument(std::string("resume: the checkpoint's model does not fit: ") +
+                                error.what());
   }
   for (auto& [name, average] : ema_) {
     const auto found = state.ema.find(name);
     if (found == state.ema.end() || found->second.sizes() != average.sizes())
-      throw std::invalid_argument("resume: the checkpoint's EMA lacks \"" + name + "\" or has another shape");
+      throw std::invalid_argument("resume: the checkpoint's EMA lacks \"" + name +
+                                  "\" or has another shape");
     at::NoGradGuard no_grad;
     average.copy_(found->second);
   }
   const int64_t step = state.progress.at("step").get<int64_t>();
   if (step < 0 || step > config_.total_steps())
     throw std::invalid_argument("resume: the checkpoint is at step " + std::to_string(step) +
-                                ", beyond this config's " + std::to_string(config_.total_steps()) + " steps");
+                                ", beyond this config's " + std::to_string(config_.total_steps()) +
+                                " steps");
   step_ = step;
   consecutive_nonfinite_ = state.progress.at("consecutive_nonfinite").get<int64_t>();
   const int saved_stage = state.progress.at("optimizer_stage").get<int>();

@@ -44,11 +44,12 @@ struct StepRecord {
 
 // Everything an exact resume needs. Tensors are CPU copies.
 struct TrainState {
-  std::map<std::string, at::Tensor> model;      // state_dict names
-  std::map<std::string, at::Tensor> ema;        // the same names
-  std::map<std::string, at::Tensor> optimizer;  // "<param>.exp_avg", "<param>.exp_avg_sq", "<param>.step"
-  std::map<std::string, at::Tensor> rng;        // "torch_cpu": the default CPU generator's state
-  nlohmann::json progress;                      // {"step", "consecutive_nonfinite", "optimizer_stage"}
+  std::map<std::string, at::Tensor> model;  // state_dict names
+  std::map<std::string, at::Tensor> ema;    // the same names
+  std::map<std::string, at::Tensor>
+      optimizer;                          // "<param>.exp_avg", "<param>.exp_avg_sq", "<param>.step"
+  std::map<std::string, at::Tensor> rng;  // "torch_cpu": the default CPU generator's state
+  nlohmann::json progress;                // {"step", "consecutive_nonfinite", "optimizer_stage"}
   std::map<std::string, std::string> model_metadata;  // the model file's (read_checkpoint)
 };
 

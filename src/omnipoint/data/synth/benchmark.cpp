@@ -10,9 +10,11 @@ namespace omnipoint::data::synth {
 
 constexpr std::uint64_t kSplitSeedStride = 100000;
 
-BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& what, const std::string& set,
-                             int64_t per_split_limit) {
-  const auto fail = [&](const std::string& why) { throw std::invalid_argument("benchmark " + what + ": " + why); };
+BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& what,
+                             const std::string& set, int64_t per_split_limit) {
+  const auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("benchmark " + what + ": " + why);
+  };
   nlohmann::json definition;
   try {
     definition = nlohmann::json::parse(json_text);
@@ -26,7 +28,8 @@ BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& wh
     if (definition.contains("render")) {
       const auto& render = definition["render"];
       plan.render.shadows = render.value("shadows", plan.render.shadows);
-      plan.render.ambient_occlusion = render.value("ambient_occlusion", plan.render.ambient_occlusion);
+      plan.render.ambient_occlusion =
+          render.value("ambient_occlusion", plan.render.ambient_occlusion);
     }
     const auto& sets = definition.at("sets");
     if (!sets.contains(set)) fail("no set \"" + set + "\" (sets: " + sets.dump() + ")");
@@ -38,10 +41,13 @@ BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& wh
       const auto name = split.at("name").get<std::string>();
       const auto count = split.at("count").get<int64_t>();
       std::vector<camera::Camera> cameras;
-      for (const auto& spec : split.at("cameras")) cameras.push_back(camera::parse_camera(spec.get<std::string>()));
+      for (const auto& spec : split.at("cameras"))
+        cameras.push_back(camera::parse_camera(spec.get<std::string>()));
       std::vector<SceneKind> scenes;
-      for (const auto& scene : split.at("scenes")) scenes.push_back(parse_scene_kind(scene.get<std::string>()));
-      if (name.empty() || name.find('/') != std::string::npos) fail("split name \"" + name + "\": expected a folder name");
+      for (const auto& scene : split.at("scenes"))
+        scenes.push_back(parse_scene_kind(scene.get<std::string>()));
+      if (name.empty() || name.find('/') != std::string::npos)
+        fail("split name \"" + name + "\": expected a folder name");
       if (count < 1 || cameras.empty() || scenes.empty())
         fail("split " + name + ": expected count >= 1 and non-empty \"cameras\" and \"scenes\"");
       const int64_t n = per_split_limit > 0 ? std::min(count, per_split_limit) : count;

@@ -34,7 +34,7 @@ struct BenchmarkPlan {
 // at most `per_split_limit` per split when > 0 (the first ones, so a reduced run is a prefix of
 // the full one). Bad JSON, missing or mistyped fields, bad camera specs or scene kinds and an
 // unknown set -> std::invalid_argument naming the definition and the field.
-BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& what, const std::string& set,
-                             int64_t per_split_limit = 0);
+BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& what,
+                             const std::string& set, int64_t per_split_limit = 0);
 
 }  // namespace omnipoint::data::synth

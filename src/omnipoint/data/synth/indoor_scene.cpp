@@ -46,8 +46,8 @@ void add_opening(Scene& scene, Random& rng, int walls, double hx, double hy, dou
   half[1 - axis] = half_width;
   auto& corridor = add_box(scene, corridor_material, center, half);
   const double cz = center[2];
-  corridor.openings.push_back(Opening{axis, -side, {hole.lo[0] - centre, bottom - cz},
-                                      {hole.hi[0] - centre, top - cz}});
+  corridor.openings.push_back(
+      Opening{axis, -side, {hole.lo[0] - centre, bottom - cz}, {hole.hi[0] - centre, top - cz}});
 }
 
 }  // namespace
@@ -69,8 +69,8 @@ Scene make_indoor_scene(std::uint64_t seed) {
   const int grass = add_material(scene, Pattern::kNoise, jitter_color(rng, {0.25, 0.45, 0.15}, 0.2),
                                  {0.15, 0.3, 0.1}, 1.5);
   add_plane(scene, grass, {0, 0, -0.5}, {0, 0, 1});
-  const int plaster = add_material(scene, Pattern::kNoise, jitter_color(rng, {0.8, 0.78, 0.72}, 0.1),
-                                   {0.65, 0.63, 0.6}, 1.0);
+  const int plaster = add_material(
+      scene, Pattern::kNoise, jitter_color(rng, {0.8, 0.78, 0.72}, 0.1), {0.65, 0.63, 0.6}, 1.0);
   const int door_wall = rng.integer(0, 3);
   add_opening(scene, rng, walls, hx, hy, height, door_wall / 2, door_wall % 2 ? 1 : -1, true,
               plaster);
@@ -126,12 +126,17 @@ Scene make_indoor_scene(std::uint64_t seed) {
       if (!is_free(taken, x, y, probe)) continue;
       double radius = probe;
       switch (kind) {
-        case 2: radius = add_table(scene, rng, x, y, yaw, material); break;
-        case 3: radius = add_chair(scene, rng, x, y, yaw, material); break;
+        case 2:
+          radius = add_table(scene, rng, x, y, yaw, material);
+          break;
+        case 3:
+          radius = add_chair(scene, rng, x, y, yaw, material);
+          break;
         case 4: {  // sofa or bed: a base and a back
           const double hl = rng.uniform(0.7, 1.0), hw = rng.uniform(0.4, 0.5);
           add_box(scene, material, {x, y, 0.22}, {hl, hw, 0.22}, yaw);
-          add_box(scene, material, {x + std::sin(yaw) * (hw - 0.1), y - std::cos(yaw) * (hw - 0.1), 0.5},
+          add_box(scene, material,
+                  {x + std::sin(yaw) * (hw - 0.1), y - std::cos(yaw) * (hw - 0.1), 0.5},
                   {hl, 0.1, 0.5}, yaw);
           radius = std::hypot(hl, hw);
           break;
@@ -146,8 +151,10 @@ Scene make_indoor_scene(std::uint64_t seed) {
         }
         case 6: {  // a ball or a round pouf
           const double r = rng.uniform(0.12, 0.35);
-          if (rng.chance(0.5)) add_sphere(scene, material, {x, y, r}, r);
-          else add_cylinder(scene, material, {x, y, r}, {0, 0, 1}, r * 1.2, r);
+          if (rng.chance(0.5))
+            add_sphere(scene, material, {x, y, r}, r);
+          else
+            add_cylinder(scene, material, {x, y, r}, {0, 0, 1}, r * 1.2, r);
           radius = r * 1.2;
           break;
         }
@@ -175,14 +182,16 @@ Scene make_indoor_scene(std::uint64_t seed) {
     const double w = rng.uniform(0.2, 0.6), h = rng.uniform(0.2, 0.5);
     const double t = rng.uniform(-along + 0.7, along - 0.7), z = rng.uniform(1.3, 1.8);
     const int art = add_random_prop_material(scene, rng);
-    add_box(scene, art, axis == 0 ? Vec3{side * (across - 0.015), t, z} : Vec3{t, side * (across - 0.015), z},
+    add_box(scene, art,
+            axis == 0 ? Vec3{side * (across - 0.015), t, z} : Vec3{t, side * (across - 0.015), z},
             axis == 0 ? Vec3{0.015, w, h} : Vec3{w, 0.015, h});
   }
 
   const int lamps = rng.integer(1, 2);
   for (int l = 0; l < lamps; ++l) {
     Light light;
-    light.position = {rng.uniform(-hx + 0.5, hx - 0.5), rng.uniform(-hy + 0.5, hy - 0.5), height - 0.3};
+    light.position = {rng.uniform(-hx + 0.5, hx - 0.5), rng.uniform(-hy + 0.5, hy - 0.5),
+                      height - 0.3};
     const double power = rng.uniform(2.5, 4.5) / lamps;
     light.color = jitter_color(rng, {power, power * 0.93, power * 0.82}, 0.1);
     scene.lights.push_back(light);
@@ -191,8 +200,8 @@ Scene make_indoor_scene(std::uint64_t seed) {
     const double azimuth = rng.uniform(-kPi, kPi), elevation = rng.uniform(0.3, 0.8);
     Light sun;
     sun.directional = true;
-    sun.position = {std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
-                    std::sin(elevation)};
+    sun.position = {std::cos(elevation) * std::cos(azimuth),
+                    std::cos(elevation) * std::sin(azimuth), std::sin(elevation)};
     sun.color = {1.0, 0.95, 0.85};
     scene.lights.push_back(sun);
   }

@@ -17,7 +17,9 @@ struct Hole {
   const PackedScene::PackedOpening* opening;
 };
 
-at::Tensor component(const at::Tensor& t, int64_t i) { return t.select(-1, i); }
+at::Tensor component(const at::Tensor& t, int64_t i) {
+  return t.select(-1, i);
+}
 
 // Explicit three-term dot product over the last dimension (a fixed evaluation order,
 // unlike a reduction kernel).
@@ -47,20 +49,20 @@ at::Tensor to_local(const at::Tensor& v, const at::Tensor& c, const at::Tensor& 
 
 at::Tensor intersect_planes(const PackedScene& ps, const at::Tensor& idx, const at::Tensor& o,
                             const at::Tensor& d, double t_min, const std::vector<Hole>&) {
-  const auto n = ps.axis.index_select(0, idx).unsqueeze(0);       // (1, M, 3)
+  const auto n = ps.axis.index_select(0, idx).unsqueeze(0);  // (1, M, 3)
   const auto c = ps.center.index_select(0, idx).unsqueeze(0);
-  const auto nd = dot3(d.unsqueeze(1), n);                          // (N, M)
+  const auto nd = dot3(d.unsqueeze(1), n);  // (N, M)
   const auto t = dot3(c - o.unsqueeze(1), n) / away_from_zero(nd);
   return at::where((nd.abs() > 1e-12) & (t > t_min), t, at::full({}, kInf, t.options()));
 }
 
 at::Tensor intersect_boxes(const PackedScene& ps, const at::Tensor& idx, const at::Tensor& o,
                            const at::Tensor& d, double t_min, const std::vector<Hole>& holes) {
-  const auto c = ps.center.index_select(0, idx).unsqueeze(0);      // (1, M, 3)
+  const auto c = ps.center.index_select(0, idx).unsqueeze(0);  // (1, M, 3)
   const auto h = ps.half_size.index_select(0, idx).unsqueeze(0);
-  const auto cy = ps.yaw_cos.index_select(0, idx).unsqueeze(0);   // (1, M)
+  const auto cy = ps.yaw_cos.index_select(0, idx).unsqueeze(0);  // (1, M)
   const auto sy = ps.yaw_sin.index_select(0, idx).unsqueeze(0);
-  const auto ol = to_local(o.unsqueeze(1) - c, cy, sy);           // (N, M, 3)
+  const auto ol = to_local(o.unsqueeze(1) - c, cy, sy);  // (N, M, 3)
   const auto dl = to_local(d.unsqueeze(1).expand({d.size(0), idx.size(0), 3}), cy, sy);
   const auto inv = at::reciprocal(away_from_zero(dl));
   const auto t1 = (-h - ol) * inv, t2 = (h - ol) * inv;
@@ -80,10 +82,10 @@ at::Tensor intersect_boxes(const PackedScene& ps, const at::Tensor& idx, const a
     for (auto* which : {&ok_near, &ok_far}) {
       const auto& t = which == &ok_near ? t_near : t_far;
       const auto tm = t.select(1, hole.column).unsqueeze(-1);
-      const auto p = olm + tm * dlm;                              // (N, 3)
+      const auto p = olm + tm * dlm;  // (N, 3)
       const auto pa = component(p, op.axis), p0 = component(p, a0), p1 = component(p, a1);
-      const auto in_hole = ((pa - face).abs() <= tolerance) & (p0 >= op.lo[0]) &
-                           (p0 <= op.hi[0]) & (p1 >= op.lo[1]) & (p1 <= op.hi[1]);
+      const auto in_hole = ((pa - face).abs() <= tolerance) & (p0 >= op.lo[0]) & (p0 <= op.hi[0]) &
+                           (p1 >= op.lo[1]) & (p1 <= op.hi[1]);
       which->select(1, hole.column).logical_and_(in_hole.logical_not());
     }
   }
@@ -93,9 +95,9 @@ at::Tensor intersect_boxes(const PackedScene& ps, const at::Tensor& idx, const a
 at::Tensor intersect_spheres(const PackedScene& ps, const at::Tensor& idx, const at::Tensor& o,
                              const at::Tensor& d, double t_min, const std::vector<Hole>&) {
   const auto c = ps.center.index_select(0, idx).unsqueeze(0);
-  const auto r = ps.radius.index_select(0, idx).unsqueeze(0);     // (1, M)
-  const auto w = o.unsqueeze(1) - c;                               // (N or 1, M, 3)
-  const auto b = dot3(w, d.unsqueeze(1));                          // (N, M)
+  const auto r = ps.radius.index_select(0, idx).unsqueeze(0);  // (1, M)
+  const auto w = o.unsqueeze(1) - c;                           // (N or 1, M, 3)
+  const auto b = dot3(w, d.unsqueeze(1));                      // (N, M)
   const auto disc = b * b - (dot3(w, w) - r * r);
   const auto root = at::sqrt(disc.clamp_min(0));
   const auto hits = disc >= 0;
@@ -103,16 +105,15 @@ at::Tensor intersect_spheres(const PackedScene& ps, const at::Tensor& idx, const
   return first_valid(t0, hits & (t0 > t_min), t1, hits & (t1 > t_min));
 }
 
-at::Tensor intersect_cylinders(const PackedScene& ps, const at::Tensor& idx,
-                               const at::Tensor& o, const at::Tensor& d, double t_min,
-                               const std::vector<Hole>&) {
+at::Tensor intersect_cylinders(const PackedScene& ps, const at::Tensor& idx, const at::Tensor& o,
+                               const at::Tensor& d, double t_min, const std::vector<Hole>&) {
   const auto c = ps.center.index_select(0, idx).unsqueeze(0);
-  const auto a = ps.axis.index_select(0, idx).unsqueeze(0);       // (1, M, 3)
-  const auto r = ps.radius.index_select(0, idx).unsqueeze(0);     // (1, M)
+  const auto a = ps.axis.index_select(0, idx).unsqueeze(0);    // (1, M, 3)
+  const auto r = ps.radius.index_select(0, idx).unsqueeze(0);  // (1, M)
   const auto hl = component(ps.half_size.index_select(0, idx), 2).unsqueeze(0);
   const auto w = o.unsqueeze(1) - c;
   const auto de = d.unsqueeze(1);
-  const auto wa = dot3(w, a), da = dot3(de, a);                    // (N, M)
+  const auto wa = dot3(w, a), da = dot3(de, a);  // (N, M)
   const auto wp = w - wa.unsqueeze(-1) * a, dp = de - da.unsqueeze(-1) * a;
   const auto qa = dot3(dp, dp), qb = dot3(wp, dp), qc = dot3(wp, wp) - r * r;
   const auto disc = qb * qb - qa * qc;
@@ -121,8 +122,8 @@ at::Tensor intersect_cylinders(const PackedScene& ps, const at::Tensor& idx,
   const auto side_ok = (disc >= 0) & (qa > 1e-12);
   const auto s0 = (-qb - root) / qa_safe, s1 = (-qb + root) / qa_safe;
   const auto within = [&](const at::Tensor& t) { return (wa + t * da).abs() <= hl; };
-  auto t = first_valid(s0, side_ok & (s0 > t_min) & within(s0), s1,
-                       side_ok & (s1 > t_min) & within(s1));
+  auto t =
+      first_valid(s0, side_ok & (s0 > t_min) & within(s0), s1, side_ok & (s1 > t_min) & within(s1));
   const auto da_safe = away_from_zero(da);
   for (double sign : {-1.0, 1.0}) {
     const auto tc = (sign * hl - wa) / da_safe;
@@ -172,15 +173,24 @@ PackedScene pack_scene(const Scene& scene, const at::TensorOptions& options) {
     ysin.push_back(std::sin(p.yaw));
     axis.insert(axis.end(), p.axis.begin(), p.axis.end());
     radius.push_back(p.radius);
-    for (const auto& op : p.openings) ps.openings.push_back({i, op.side * p.half_size[op.axis], op});
+    for (const auto& op : p.openings)
+      ps.openings.push_back({i, op.side * p.half_size[op.axis], op});
     ps.shapes.push_back(p.shape);
     ps.bound_centers.push_back(p.center);
     const auto& h = p.half_size;
     switch (p.shape) {
-      case Shape::kPlane: ps.bound_radii.push_back(kInf); break;
-      case Shape::kBox: ps.bound_radii.push_back(std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])); break;
-      case Shape::kSphere: ps.bound_radii.push_back(p.radius); break;
-      case Shape::kCylinder: ps.bound_radii.push_back(std::hypot(p.radius, h[2])); break;
+      case Shape::kPlane:
+        ps.bound_radii.push_back(kInf);
+        break;
+      case Shape::kBox:
+        ps.bound_radii.push_back(std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]));
+        break;
+      case Shape::kSphere:
+        ps.bound_radii.push_back(p.radius);
+        break;
+      case Shape::kCylinder:
+        ps.bound_radii.push_back(std::hypot(p.radius, h[2]));
+        break;
     }
   }
   const auto f64 = at::TensorOptions().dtype(at::kDouble);
@@ -216,8 +226,8 @@ Hit nearest_hit(const PackedScene& ps, const Candidates& candidates, const at::T
   }
   for (int s = 0; s < kNumShapes; ++s) {
     if (of_shape[s].empty()) continue;
-    const auto idx = at::tensor(of_shape[s], at::TensorOptions().dtype(at::kLong))
-                         .to(directions.device());
+    const auto idx =
+        at::tensor(of_shape[s], at::TensorOptions().dtype(at::kLong)).to(directions.device());
     const auto t_all = kIntersectors[s](ps, idx, origins, directions, t_min, holes);  // (N, M)
     const auto [t, column] = t_all.min(1);
     const auto nearer = t < hit.t;
@@ -264,9 +274,9 @@ Surface surface_at(const PackedScene& ps, const at::Tensor& p, const at::Tensor&
 
   const auto sphere_n = normalized(w);
   const auto is = [&](Shape s) { return (shape == static_cast<int64_t>(s)).unsqueeze(-1); };
-  auto normal = at::where(is(Shape::kBox), box_n,
-                          at::where(is(Shape::kSphere), sphere_n,
-                                    at::where(is(Shape::kCylinder), cyl_n, a)));
+  auto normal =
+      at::where(is(Shape::kBox), box_n,
+                at::where(is(Shape::kSphere), sphere_n, at::where(is(Shape::kCylinder), cyl_n, a)));
   const auto plane_q = p;  // planes are textured in world coordinates
   const auto round_uv = dominant_axis_uv(w, normal, z);
   auto uv = at::where(is(Shape::kBox), box_uv,
@@ -309,7 +319,8 @@ Candidates candidates_in_cone(const PackedScene& ps, const Vec3& origin, const V
     const double d = distance(c, origin);
     if (d <= r * (1 + 1e-9) + 1e-9) return true;
     const double along = ((c[0] - origin[0]) * axis[0] + (c[1] - origin[1]) * axis[1] +
-                          (c[2] - origin[2]) * axis[2]) / d;
+                          (c[2] - origin[2]) * axis[2]) /
+                         d;
     const double angle = std::acos(std::clamp(along, -1.0, 1.0));
     return angle <= half_angle + std::asin(std::min(1.0, r / d)) + 1e-6;
   });

@@ -57,8 +57,8 @@ struct Hit {
   at::Tensor primitive;  // (N) int64 global primitive index, -1 on a miss
 };
 // origins: (N, 3) or (1, 3); directions: (N, 3), unit length. Only `candidates` are tested.
-Hit nearest_hit(const PackedScene& scene, const Candidates& candidates,
-                const at::Tensor& origins, const at::Tensor& directions, double t_min);
+Hit nearest_hit(const PackedScene& scene, const Candidates& candidates, const at::Tensor& origins,
+                const at::Tensor& directions, double t_min);
 
 struct Surface {
   at::Tensor normal;    // (N, 3) unit, world frame (orientation not yet towards the ray)
@@ -66,7 +66,6 @@ struct Surface {
   at::Tensor material;  // (N) int64
 };
 // Surface attributes at `points` (N, 3) lying on `primitive` (N, values >= 0).
-Surface surface_at(const PackedScene& scene, const at::Tensor& points,
-                   const at::Tensor& primitive);
+Surface surface_at(const PackedScene& scene, const at::Tensor& points, const at::Tensor& primitive);
 
 }  // namespace omnipoint::data::synth

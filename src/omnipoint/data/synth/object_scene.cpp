@@ -18,16 +18,18 @@ Scene make_object_scene(std::uint64_t seed) {
   scene.texture_seed = rng.seed32();
   randomize_sky(scene, rng);
 
-  const double hx = rng.uniform(2.5, 4.5), hy = rng.uniform(2.5, 4.5), height = rng.uniform(2.5, 3.2);
+  const double hx = rng.uniform(2.5, 4.5), hy = rng.uniform(2.5, 4.5),
+               height = rng.uniform(2.5, 3.2);
   add_room(scene, add_room_materials(scene, rng), hx, hy, height);
 
   // The table: a top (wood, plain or cloth-like) on four legs.
-  const double hl = rng.uniform(0.6, 1.0), hw = rng.uniform(0.4, 0.6), top_z = rng.uniform(0.72, 0.78);
+  const double hl = rng.uniform(0.6, 1.0), hw = rng.uniform(0.4, 0.6),
+               top_z = rng.uniform(0.72, 0.78);
   const Vec3 wood = jitter_color(rng, {0.55, 0.38, 0.22}, 0.25);
-  const int table = rng.chance(0.6)
-                        ? add_material(scene, Pattern::kWood, wood, {wood[0] * 0.6, wood[1] * 0.6, wood[2] * 0.6},
-                                       rng.uniform(1.0, 2.0))
-                        : add_random_prop_material(scene, rng);
+  const int table = rng.chance(0.6) ? add_material(scene, Pattern::kWood, wood,
+                                                   {wood[0] * 0.6, wood[1] * 0.6, wood[2] * 0.6},
+                                                   rng.uniform(1.0, 2.0))
+                                    : add_random_prop_material(scene, rng);
   add_box(scene, table, {0, 0, top_z - 0.025}, {hl, hw, 0.025});
   for (double sx : {-1.0, 1.0})
     for (double sy : {-1.0, 1.0})
@@ -46,11 +48,14 @@ Scene make_object_scene(std::uint64_t seed) {
     const double x = rng.uniform(-hl + size + 0.02, hl - size - 0.02);
     const double y = rng.uniform(-hw + size + 0.02, hw - size - 0.02);
     bool free = true;
-    for (const auto& s : spots) free = free && std::hypot(s.x - x, s.y - y) > s.r + size * 1.5 + 0.01;
+    for (const auto& s : spots)
+      free = free && std::hypot(s.x - x, s.y - y) > s.r + size * 1.5 + 0.01;
     if (!free) continue;
     const int material = add_random_prop_material(scene, rng);
     switch (kind) {
-      case 0: add_sphere(scene, material, {x, y, top_z + size}, size); break;
+      case 0:
+        add_sphere(scene, material, {x, y, top_z + size}, size);
+        break;
       case 1: {
         const double h = size * rng.uniform(0.5, 2.0);
         add_box(scene, material, {x, y, top_z + h}, {size, size * rng.uniform(0.5, 1.0), h},
@@ -64,7 +69,8 @@ Scene make_object_scene(std::uint64_t seed) {
       }
       case 3: {  // a roll lying on its side
         const double yaw = rng.uniform(-kPi, kPi), r = size * 0.5;
-        add_cylinder(scene, material, {x, y, top_z + r}, {std::cos(yaw), std::sin(yaw), 0}, r, size);
+        add_cylinder(scene, material, {x, y, top_z + r}, {std::cos(yaw), std::sin(yaw), 0}, r,
+                     size);
         break;
       }
       default: {  // a stack: a box with a ball on it

@@ -35,14 +35,17 @@ Scene make_outdoor_scene(std::uint64_t seed) {
   scene.fog_distance = rng.uniform(120, 400);
 
   const double road = rng.uniform(3.5, 6.5), walk = rng.uniform(2.0, 4.0);
-  const int asphalt = add_material(scene, Pattern::kNoise, jitter_color(rng, {0.3, 0.3, 0.31}, 0.15),
-                                   {0.2, 0.2, 0.21}, 0.6);
+  const int asphalt = add_material(
+      scene, Pattern::kNoise, jitter_color(rng, {0.3, 0.3, 0.31}, 0.15), {0.2, 0.2, 0.21}, 0.6);
   add_plane(scene, asphalt, {0, 0, 0}, {0, 0, 1});
-  const int paving = add_material(scene, Pattern::kTiles, jitter_color(rng, {0.62, 0.6, 0.56}, 0.15),
-                                  {0.4, 0.39, 0.37}, rng.uniform(0.4, 0.8));
+  const int paving =
+      add_material(scene, Pattern::kTiles, jitter_color(rng, {0.62, 0.6, 0.56}, 0.15),
+                   {0.4, 0.39, 0.37}, rng.uniform(0.4, 0.8));
   for (double side : {-1.0, 1.0})
-    add_box(scene, paving, {side * (road + walk / 2), 0, 0.075}, {walk / 2, kStreetHalfLength, 0.075});
-  const int marking = add_material(scene, Pattern::kNoise, {0.9, 0.9, 0.85}, {0.75, 0.75, 0.7}, 0.3);
+    add_box(scene, paving, {side * (road + walk / 2), 0, 0.075},
+            {walk / 2, kStreetHalfLength, 0.075});
+  const int marking =
+      add_material(scene, Pattern::kNoise, {0.9, 0.9, 0.85}, {0.75, 0.75, 0.7}, 0.3);
   const double dash = rng.uniform(1.5, 3.0), period = dash + rng.uniform(3.0, 6.0);
   for (double y = -60; y < 60; y += period)
     add_box(scene, marking, {0, y, 0.003}, {0.07, dash / 2, 0.003});
@@ -55,12 +58,15 @@ Scene make_outdoor_scene(std::uint64_t seed) {
   const double cam_z = (on_walk ? 0.15 : 0.0) + rng.uniform(1.4, 2.2);
   const double heading = rng.chance(0.8) ? (rng.chance(0.5) ? 0.0 : kPi) + rng.uniform(-0.5, 0.5)
                                          : rng.uniform(-kPi, kPi);
-  scene.pose = make_pose({cam_x, cam_y, cam_z}, heading, rng.uniform(-0.2, 0.12),
-                         rng.uniform(-0.05, 0.05));
+  scene.pose =
+      make_pose({cam_x, cam_y, cam_z}, heading, rng.uniform(-0.2, 0.12), rng.uniform(-0.05, 0.05));
 
   // Buildings in two rows, with small gaps between them.
-  static const Vec3 walls[] = {{0.75, 0.7, 0.6}, {0.6, 0.35, 0.25}, {0.8, 0.78, 0.75},
-                               {0.55, 0.55, 0.58}, {0.85, 0.75, 0.55}};
+  static const Vec3 walls[] = {{0.75, 0.7, 0.6},
+                               {0.6, 0.35, 0.25},
+                               {0.8, 0.78, 0.75},
+                               {0.55, 0.55, 0.58},
+                               {0.85, 0.75, 0.55}};
   for (double side : {-1.0, 1.0}) {
     for (double y = -kStreetHalfLength; y < kStreetHalfLength;) {
       const double width = rng.uniform(8, 25), depth = rng.uniform(8, 20);
@@ -68,9 +74,10 @@ Scene make_outdoor_scene(std::uint64_t seed) {
       const Vec3 wall = jitter_color(rng, walls[rng.integer(0, 4)], 0.15);
       const int material =
           rng.chance(0.75)
-              ? add_material(scene, Pattern::kFacade, wall, jitter_color(rng, {0.2, 0.25, 0.3}, 0.3),
-                             rng.uniform(2.8, 3.6))
-              : add_material(scene, Pattern::kBricks, wall, {0.7, 0.68, 0.65}, rng.uniform(0.22, 0.3));
+              ? add_material(scene, Pattern::kFacade, wall,
+                             jitter_color(rng, {0.2, 0.25, 0.3}, 0.3), rng.uniform(2.8, 3.6))
+              : add_material(scene, Pattern::kBricks, wall, {0.7, 0.68, 0.65},
+                             rng.uniform(0.22, 0.3));
       const double x = side * (road + walk + setback + depth / 2);
       add_box(scene, material, {x, y + width / 2, height / 2}, {depth / 2, width / 2, height / 2});
       y += width + (rng.chance(0.3) ? rng.uniform(2, 6) : 0.0);
@@ -78,10 +85,11 @@ Scene make_outdoor_scene(std::uint64_t seed) {
   }
 
   // Poles and trees along the kerbs (never right at the camera).
-  const int metal = add_material(scene, Pattern::kNoise, {0.35, 0.36, 0.38}, {0.25, 0.26, 0.28}, 0.5);
+  const int metal =
+      add_material(scene, Pattern::kNoise, {0.35, 0.36, 0.38}, {0.25, 0.26, 0.28}, 0.5);
   const int bark = add_material(scene, Pattern::kNoise, {0.35, 0.25, 0.15}, {0.2, 0.15, 0.1}, 0.3);
-  const int leaves = add_material(scene, Pattern::kNoise, jitter_color(rng, {0.22, 0.42, 0.12}, 0.2),
-                                  {0.1, 0.22, 0.06}, 0.5);
+  const int leaves = add_material(
+      scene, Pattern::kNoise, jitter_color(rng, {0.22, 0.42, 0.12}, 0.2), {0.1, 0.22, 0.06}, 0.5);
   for (double side : {-1.0, 1.0}) {
     const double x = side * (road + 0.5);
     for (double y = -80 + rng.uniform(0, 10); y < 80; y += rng.uniform(10, 22)) {
@@ -99,17 +107,20 @@ Scene make_outdoor_scene(std::uint64_t seed) {
   }
 
   // Parked cars along both kerbs.
-  const int glass = add_material(scene, Pattern::kNoise, {0.15, 0.18, 0.22}, {0.05, 0.07, 0.1}, 0.5);
-  const int tyre = add_material(scene, Pattern::kNoise, {0.08, 0.08, 0.08}, {0.04, 0.04, 0.04}, 0.2);
-  static const Vec3 paints[] = {{0.7, 0.1, 0.1}, {0.1, 0.2, 0.5}, {0.85, 0.85, 0.85},
+  const int glass =
+      add_material(scene, Pattern::kNoise, {0.15, 0.18, 0.22}, {0.05, 0.07, 0.1}, 0.5);
+  const int tyre =
+      add_material(scene, Pattern::kNoise, {0.08, 0.08, 0.08}, {0.04, 0.04, 0.04}, 0.2);
+  static const Vec3 paints[] = {{0.7, 0.1, 0.1}, {0.1, 0.2, 0.5},  {0.85, 0.85, 0.85},
                                 {0.1, 0.1, 0.1}, {0.5, 0.5, 0.52}, {0.2, 0.4, 0.25}};
   for (double side : {-1.0, 1.0}) {
     const double x = side * (road - 1.1);
     for (double y = -60 + rng.uniform(0, 8); y < 60; y += rng.uniform(5.5, 14)) {
       if (std::abs(x - cam_x) < 2.2 && std::abs(y - cam_y) < 3.5) continue;
       if (rng.chance(0.3)) continue;
-      const int paint = add_material(scene, Pattern::kNoise, jitter_color(rng, paints[rng.integer(0, 5)], 0.1),
-                                     jitter_color(rng, paints[rng.integer(0, 5)], 0.1), 3.0);
+      const int paint =
+          add_material(scene, Pattern::kNoise, jitter_color(rng, paints[rng.integer(0, 5)], 0.1),
+                       jitter_color(rng, paints[rng.integer(0, 5)], 0.1), 3.0);
       add_car(scene, rng, x, y, paint, glass, tyre);
     }
   }

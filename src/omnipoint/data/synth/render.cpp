@@ -13,7 +13,9 @@
 namespace omnipoint::data::synth {
 namespace {
 
-at::Tensor component(const at::Tensor& t, int64_t i) { return t.select(-1, i); }
+at::Tensor component(const at::Tensor& t, int64_t i) {
+  return t.select(-1, i);
+}
 
 at::Tensor dot3(const at::Tensor& a, const at::Tensor& b) {
   return component(a, 0) * component(b, 0) + component(a, 1) * component(b, 1) +
@@ -39,9 +41,10 @@ at::Tensor rotate(const std::array<std::array<double, 3>, 3>& m, const at::Tenso
                   bool transposed) {
   const auto x = component(v, 0), y = component(v, 1), z = component(v, 2);
   const auto e = [&](int i, int j) { return transposed ? m[j][i] : m[i][j]; };
-  return at::stack({e(0, 0) * x + e(0, 1) * y + e(0, 2) * z,
-                    e(1, 0) * x + e(1, 1) * y + e(1, 2) * z,
-                    e(2, 0) * x + e(2, 1) * y + e(2, 2) * z}, -1);
+  return at::stack(
+      {e(0, 0) * x + e(0, 1) * y + e(0, 2) * z, e(1, 0) * x + e(1, 1) * y + e(1, 2) * z,
+       e(2, 0) * x + e(2, 1) * y + e(2, 2) * z},
+      -1);
 }
 
 // Sky radiance for world directions: horizon-to-zenith gradient, value-noise clouds
@@ -82,7 +85,8 @@ struct Ball {
 // A ball around points (N, 3), N > 0, from their bounding box (exact min/max reductions).
 Ball bounding_ball(const at::Tensor& points) {
   const auto box = at::stack({std::get<0>(points.min(0)), std::get<0>(points.max(0))})
-                       .to(at::kCPU, at::kDouble).contiguous();
+                       .to(at::kCPU, at::kDouble)
+                       .contiguous();
   const auto b = box.accessor<double, 2>();
   Ball ball{{0, 0, 0}, 0};
   for (int i = 0; i < 3; ++i) {
@@ -99,16 +103,15 @@ Candidates primary_candidates(const PackedScene& ps, const Vec3& origin, const a
   const auto axis = normalized(mid.to(at::kDouble));
   const double cos_half = dot3(d.to(at::kDouble), axis.unsqueeze(0)).min().item<double>();
   const auto a = axis.cpu();
-  return candidates_in_cone(ps, origin,
-                            {a[0].item<double>(), a[1].item<double>(), a[2].item<double>()},
-                            cos_half - 1e-6);
+  return candidates_in_cone(
+      ps, origin, {a[0].item<double>(), a[1].item<double>(), a[2].item<double>()}, cos_half - 1e-6);
 }
 
 struct Shaded {
-  at::Tensor rgb;       // (n, 3) linear radiance in [0, 1]
-  at::Tensor t;         // (n) 0 where no hit
-  at::Tensor mask;      // (n)
-  at::Tensor normal;    // (n, 3) camera frame, 0 where no hit
+  at::Tensor rgb;     // (n, 3) linear radiance in [0, 1]
+  at::Tensor t;       // (n) 0 where no hit
+  at::Tensor mask;    // (n)
+  at::Tensor normal;  // (n, 3) camera frame, 0 where no hit
 };
 
 Shaded shade(const Scene& scene, const PackedScene& ps, const at::Tensor& rays,
@@ -136,14 +139,15 @@ Shaded shade(const Scene& scene, const PackedScene& ps, const at::Tensor& rays,
   const Ball origins = idx.numel() > 0 ? bounding_ball(from) : Ball{};
   if (options.ambient_occlusion && idx.numel() > 0) {
     // Three short rays at 60 degrees from the normal, 120 degrees apart around it.
-    const auto helper = at::where((component(nh, 2).abs() < 0.9).unsqueeze(-1),
-                                  vec({0, 0, 1}, opt).expand_as(nh), vec({1, 0, 0}, opt).expand_as(nh));
+    const auto helper =
+        at::where((component(nh, 2).abs() < 0.9).unsqueeze(-1), vec({0, 0, 1}, opt).expand_as(nh),
+                  vec({1, 0, 0}, opt).expand_as(nh));
     const auto tangent = normalized(cross3(nh, helper)), bitangent = cross3(nh, tangent);
     const double reach = 0.6, up = 0.5, out = std::sqrt(0.75), half = 0.5, sixty = std::sqrt(0.75);
     const auto near = candidates_within(ps, origins.center, origins.radius, reach);
     auto open = at::zeros_like(th);
-    for (const auto& side : {tangent, -half * tangent + sixty * bitangent,
-                             -half * tangent - sixty * bitangent})
+    for (const auto& side :
+         {tangent, -half * tangent + sixty * bitangent, -half * tangent - sixty * bitangent})
       open = open + unoccluded(ps, near, from, nh * up + side * out, at::full_like(th, reach));
     irradiance = irradiance * (0.45 + 0.55 * open / 3).unsqueeze(-1);
   }
@@ -163,8 +167,8 @@ Shaded shade(const Scene& scene, const PackedScene& ps, const at::Tensor& rays,
     auto lambert = dot3(nh, l).clamp_min(0) * falloff;
     if (options.shadows && light.casts_shadows && idx.numel() > 0) {
       const auto lit = at::nonzero(lambert > 0).squeeze(-1);
-      const auto blockers = candidates_near_path(ps, origins.center, origins.radius,
-                                                 light.position, light.directional);
+      const auto blockers = candidates_near_path(ps, origins.center, origins.radius, light.position,
+                                                 light.directional);
       const auto vis = unoccluded(ps, blockers, from.index_select(0, lit), l.index_select(0, lit),
                                   range.index_select(0, lit));
       lambert = lambert.index_copy(0, lit, lambert.index_select(0, lit) * vis);
@@ -193,7 +197,8 @@ Render render_scene(const Scene& scene, const at::Tensor& rays, const at::Tensor
   if (valid.sizes() != rays.sizes().slice(0, 2) || valid.scalar_type() != at::kBool)
     throw std::invalid_argument("render_scene: valid must be a bool (H, W) tensor");
   if (scene.materials.empty() || options.tile_size <= 0 || !(options.max_distance > 0))
-    throw std::invalid_argument("render_scene: the scene has no materials, or tile size or max distance <= 0");
+    throw std::invalid_argument(
+        "render_scene: the scene has no materials, or tile size or max distance <= 0");
   const int64_t height = rays.size(0), width = rays.size(1);
   const auto ps = pack_scene(scene, rays.options());
   auto rgb = at::empty({height, width, 3}, rays.options());
@@ -217,8 +222,10 @@ Render render_scene(const Scene& scene, const at::Tensor& rays, const at::Tensor
   };
   // CPU: threads take whole tiles (each tile's ops then run single-threaded inside);
   // CUDA: tiles run in order, each already parallel on the device.
-  if (rays.is_cuda()) work(0, tiles_x * tiles_y);
-  else at::parallel_for(0, tiles_x * tiles_y, 1, work);
+  if (rays.is_cuda())
+    work(0, tiles_x * tiles_y);
+  else
+    at::parallel_for(0, tiles_x * tiles_y, 1, work);
 
   // Display encoding: clamp and a square-root gamma (an exact IEEE operation).
   const auto encoded = at::floor(at::sqrt(rgb.clamp(0, 1)) * 255 + 0.5).to(at::kByte);

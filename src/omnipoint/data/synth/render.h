@@ -17,12 +17,12 @@
 namespace omnipoint::data::synth {
 
 struct RenderOptions {
-  bool shadows = true;           // shadow rays towards each light that casts shadows
-  bool ambient_occlusion = true; // a few short occlusion rays per pixel
-  double max_distance = 1000.0;  // metres; farther hits (the ground plane near the horizon)
-                                 // are rendered and labelled as sky
-  int64_t tile_size = 128;       // square pixel tiles are the work items (CPU threads take
-                                 // tiles; each tile culls the primitives its rays can't reach)
+  bool shadows = true;            // shadow rays towards each light that casts shadows
+  bool ambient_occlusion = true;  // a few short occlusion rays per pixel
+  double max_distance = 1000.0;   // metres; farther hits (the ground plane near the horizon)
+                                  // are rendered and labelled as sky
+  int64_t tile_size = 128;        // square pixel tiles are the work items (CPU threads take
+                                  // tiles; each tile culls the primitives its rays can't reach)
 };
 
 struct Render {

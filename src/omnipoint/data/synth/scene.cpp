@@ -12,15 +12,17 @@ SceneKind parse_scene_kind(const std::string& name) {
   if (name == "indoor") return SceneKind::kIndoor;
   if (name == "outdoor") return SceneKind::kOutdoor;
   if (name == "object") return SceneKind::kObject;
-  throw std::invalid_argument("scene kind '" + name +
-                              "': expected one of indoor, outdoor, object");
+  throw std::invalid_argument("scene kind '" + name + "': expected one of indoor, outdoor, object");
 }
 
 std::string scene_kind_name(SceneKind kind) {
   switch (kind) {
-    case SceneKind::kIndoor: return "indoor";
-    case SceneKind::kOutdoor: return "outdoor";
-    case SceneKind::kObject: return "object";
+    case SceneKind::kIndoor:
+      return "indoor";
+    case SceneKind::kOutdoor:
+      return "outdoor";
+    case SceneKind::kObject:
+      return "object";
   }
   return "unknown";
 }
@@ -50,16 +52,19 @@ Pose make_pose(const Vec3& position, double yaw, double pitch, double roll) {
   pose.yaw = yaw;
   pose.pitch = pitch;
   pose.roll = roll;
-  pose.rotation = multiply(multiply(about_world_z, level_camera),
-                           multiply(about_camera_x, about_camera_z));
+  pose.rotation =
+      multiply(multiply(about_world_z, level_camera), multiply(about_camera_x, about_camera_z));
   return pose;
 }
 
 Scene make_scene(SceneKind kind, std::uint64_t seed) {
   switch (kind) {
-    case SceneKind::kIndoor: return make_indoor_scene(seed);
-    case SceneKind::kOutdoor: return make_outdoor_scene(seed);
-    case SceneKind::kObject: return make_object_scene(seed);
+    case SceneKind::kIndoor:
+      return make_indoor_scene(seed);
+    case SceneKind::kOutdoor:
+      return make_outdoor_scene(seed);
+    case SceneKind::kObject:
+      return make_object_scene(seed);
   }
   throw std::invalid_argument("unknown scene kind");
 }
@@ -73,23 +78,27 @@ Vec3 jitter_color(Random& rng, const Vec3& base, double amount) {
   Vec3 c;
   const double brightness = rng.uniform(1.0 - amount, 1.0 + amount);
   for (int i = 0; i < 3; ++i)
-    c[i] = std::clamp(base[i] * brightness * rng.uniform(1.0 - amount / 2, 1.0 + amount / 2),
-                      0.0, 1.0);
+    c[i] = std::clamp(base[i] * brightness * rng.uniform(1.0 - amount / 2, 1.0 + amount / 2), 0.0,
+                      1.0);
   return c;
 }
 
 int add_random_prop_material(Scene& scene, Random& rng) {
-  static const Vec3 palette[] = {{0.55, 0.12, 0.1}, {0.15, 0.3, 0.6},  {0.2, 0.45, 0.2},
+  static const Vec3 palette[] = {{0.55, 0.12, 0.1}, {0.15, 0.3, 0.6},   {0.2, 0.45, 0.2},
                                  {0.8, 0.7, 0.45},  {0.35, 0.35, 0.38}, {0.85, 0.85, 0.8},
                                  {0.6, 0.4, 0.2},   {0.7, 0.55, 0.1},   {0.4, 0.2, 0.45}};
   const Vec3 a = jitter_color(rng, palette[rng.integer(0, 8)], 0.25);
   const Vec3 b = jitter_color(rng, palette[rng.integer(0, 8)], 0.25);
   const Vec3 dark{a[0] * 0.6, a[1] * 0.6, a[2] * 0.6};
   switch (rng.integer(0, 5)) {
-    case 0: return add_material(scene, Pattern::kWood, a, dark, rng.uniform(0.4, 1.0));
-    case 1: return add_material(scene, Pattern::kStripes, a, b, rng.uniform(0.05, 0.3));
-    case 2: return add_material(scene, Pattern::kChecker, a, b, rng.uniform(0.05, 0.25));
-    default: return add_material(scene, Pattern::kNoise, a, dark, rng.uniform(0.1, 0.5));
+    case 0:
+      return add_material(scene, Pattern::kWood, a, dark, rng.uniform(0.4, 1.0));
+    case 1:
+      return add_material(scene, Pattern::kStripes, a, b, rng.uniform(0.05, 0.3));
+    case 2:
+      return add_material(scene, Pattern::kChecker, a, b, rng.uniform(0.05, 0.25));
+    default:
+      return add_material(scene, Pattern::kNoise, a, dark, rng.uniform(0.1, 0.5));
   }
 }
 
@@ -146,8 +155,8 @@ namespace omnipoint::data::synth {
 
 RoomMaterials add_room_materials(Scene& scene, Random& rng) {
   static const Vec3 woods[] = {{0.55, 0.35, 0.18}, {0.7, 0.5, 0.3}, {0.4, 0.25, 0.12}};
-  static const Vec3 paints[] = {{0.85, 0.83, 0.78}, {0.8, 0.75, 0.65}, {0.65, 0.75, 0.8},
-                                {0.75, 0.8, 0.7}, {0.9, 0.85, 0.8}};
+  static const Vec3 paints[] = {
+      {0.85, 0.83, 0.78}, {0.8, 0.75, 0.65}, {0.65, 0.75, 0.8}, {0.75, 0.8, 0.7}, {0.9, 0.85, 0.8}};
   RoomMaterials m{};
   const Vec3 wood = jitter_color(rng, woods[rng.integer(0, 2)], 0.15);
   switch (rng.integer(0, 3)) {
@@ -167,10 +176,15 @@ RoomMaterials add_room_materials(Scene& scene, Random& rng) {
   const Vec3 paint = jitter_color(rng, paints[rng.integer(0, 4)], 0.1);
   const Vec3 shade{paint[0] * 0.85, paint[1] * 0.85, paint[2] * 0.85};
   switch (rng.integer(0, 4)) {
-    case 0: m.walls = add_material(scene, Pattern::kStripes, paint, shade, rng.uniform(0.15, 0.4)); break;
-    case 1: m.walls = add_material(scene, Pattern::kBricks, jitter_color(rng, {0.6, 0.3, 0.2}, 0.2),
-                                   {0.75, 0.72, 0.68}, rng.uniform(0.22, 0.3)); break;
-    default: m.walls = add_material(scene, Pattern::kNoise, paint, shade, rng.uniform(0.5, 2.0));
+    case 0:
+      m.walls = add_material(scene, Pattern::kStripes, paint, shade, rng.uniform(0.15, 0.4));
+      break;
+    case 1:
+      m.walls = add_material(scene, Pattern::kBricks, jitter_color(rng, {0.6, 0.3, 0.2}, 0.2),
+                             {0.75, 0.72, 0.68}, rng.uniform(0.22, 0.3));
+      break;
+    default:
+      m.walls = add_material(scene, Pattern::kNoise, paint, shade, rng.uniform(0.5, 2.0));
   }
   m.ceiling = add_material(scene, Pattern::kNoise, {0.92, 0.92, 0.9}, {0.82, 0.82, 0.8}, 1.0);
   return m;
@@ -217,8 +231,8 @@ double add_chair(Scene& scene, Random& rng, double x, double y, double yaw, int 
   for (double sx : {-1.0, 1.0})
     for (double sy : {-1.0, 1.0}) {
       const double lx = sx * (half - 0.03), ly = sy * (half - 0.03);
-      add_cylinder(scene, material, {x + c * lx - s * ly, y + s * lx + c * ly, seat / 2},
-                   {0, 0, 1}, 0.02, seat / 2);
+      add_cylinder(scene, material, {x + c * lx - s * ly, y + s * lx + c * ly, seat / 2}, {0, 0, 1},
+                   0.02, seat / 2);
     }
   return half * 1.5;
 }

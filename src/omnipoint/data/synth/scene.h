@@ -40,7 +40,7 @@ struct Material {
   Pattern pattern = Pattern::kNoise;
   Vec3 color_a{0.5, 0.5, 0.5};  // linear RGB in [0, 1]
   Vec3 color_b{0.3, 0.3, 0.3};
-  double scale = 1.0;           // metres per pattern period (tile, brick, stripe pair...)
+  double scale = 1.0;  // metres per pattern period (tile, brick, stripe pair...)
 };
 
 enum class Shape : std::int64_t {
@@ -79,8 +79,8 @@ struct Primitive {
 struct Light {
   bool directional = false;  // true: sunlight from direction `position` (unit, towards it)
   Vec3 position{0, 0, 3};
-  Vec3 color{1, 1, 1};       // intensity per channel (irradiance for directional lights,
-                             // intensity at 1 m for point lights)
+  Vec3 color{1, 1, 1};  // intensity per channel (irradiance for directional lights,
+                        // intensity at 1 m for point lights)
   bool casts_shadows = true;
 };
 

@@ -16,10 +16,11 @@ SynthSample synthesize(SceneKind kind, std::uint64_t seed, const camera::Camera&
   const auto rays = camera.ray_map(at::TensorOptions().dtype(at::kFloat).device(options.device));
   const Render render = render_scene(scene, rays.rays, rays.valid, options.render);
   const auto cpu = [](const at::Tensor& t) { return t.to(at::kCPU).contiguous(); };
-  Sample sample{camera, cpu(render.image).to(at::kFloat) / 255.0, cpu(render.distance).to(at::kFloat),
-                cpu(render.mask), true};
-  return SynthSample{std::move(sample), cpu(render.depth).to(at::kFloat), cpu(rays.rays).to(at::kFloat),
-                     cpu(render.normals).to(at::kFloat), std::move(scene)};
+  Sample sample{camera, cpu(render.image).to(at::kFloat) / 255.0,
+                cpu(render.distance).to(at::kFloat), cpu(render.mask), true};
+  return SynthSample{std::move(sample), cpu(render.depth).to(at::kFloat),
+                     cpu(rays.rays).to(at::kFloat), cpu(render.normals).to(at::kFloat),
+                     std::move(scene)};
 }
 
 std::string scene_meta_json(const Scene& scene) {
@@ -31,8 +32,10 @@ std::string scene_meta_json(const Scene& scene) {
       {"yaw_deg", p.yaw * kDegrees},
       {"pitch_deg", p.pitch * kDegrees},
       {"roll_deg", p.roll * kDegrees},
-      {"convention", "X_world = rotation * X_camera + position; world x east, y north, z up, metres"}};
-  nlohmann::json meta = {{"scene", scene_kind_name(scene.kind)}, {"seed", scene.seed}, {"pose", pose}};
+      {"convention",
+       "X_world = rotation * X_camera + position; world x east, y north, z up, metres"}};
+  nlohmann::json meta = {
+      {"scene", scene_kind_name(scene.kind)}, {"seed", scene.seed}, {"pose", pose}};
   return meta.dump();
 }
 

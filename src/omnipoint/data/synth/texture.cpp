@@ -18,8 +18,12 @@ at::Tensor avalanche(at::Tensor h) {
   return at::bitwise_xor(h, at::bitwise_right_shift(h, 16));
 }
 
-at::Tensor fractional_part(const at::Tensor& x) { return x - at::floor(x); }
-at::Tensor as_long(const at::Tensor& x) { return at::floor(x).to(at::kLong); }
+at::Tensor fractional_part(const at::Tensor& x) {
+  return x - at::floor(x);
+}
+at::Tensor as_long(const at::Tensor& x) {
+  return at::floor(x).to(at::kLong);
+}
 
 at::Tensor blend(const at::Tensor& a, const at::Tensor& b, const at::Tensor& t) {
   return a + (b - a) * t;
@@ -71,8 +75,8 @@ at::Tensor albedo(const Scene& scene, const at::Tensor& material, const at::Tens
   }
   const auto count = static_cast<int64_t>(scene.materials.size());
   const auto f64 = at::TensorOptions().dtype(at::kDouble);
-  const auto pattern = at::tensor(patterns, f64.dtype(at::kLong)).to(options.device())
-                           .index_select(0, material);
+  const auto pattern =
+      at::tensor(patterns, f64.dtype(at::kLong)).to(options.device()).index_select(0, material);
   const auto a = at::tensor(color_a, f64).reshape({count, 3}).to(options).index_select(0, material);
   const auto b = at::tensor(color_b, f64).reshape({count, 3}).to(options).index_select(0, material);
   const auto scale = at::tensor(scales, f64).to(options).index_select(0, material);
@@ -84,7 +88,7 @@ at::Tensor albedo(const Scene& scene, const at::Tensor& material, const at::Tens
   const std::uint32_t seed = scene.texture_seed;
   const auto one = at::ones_like(u);
 
-  auto mix = at::zeros_like(u);  // 0 -> colour a, 1 -> colour b
+  auto mix = at::zeros_like(u);   // 0 -> colour a, 1 -> colour b
   auto shade = at::ones_like(u);  // per-cell brightness variation
   const auto put = [&](Pattern p, const at::Tensor& f, const at::Tensor& s) {
     const auto here = pattern == static_cast<int64_t>(p);

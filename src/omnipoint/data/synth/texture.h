@@ -16,8 +16,7 @@ at::Tensor lattice_hash(const at::Tensor& ix, const at::Tensor& iy, std::uint32_
 // Smooth value noise in [0, 1) at continuous coordinates (u, v).
 at::Tensor value_noise(const at::Tensor& u, const at::Tensor& v, std::uint32_t seed);
 // Fractal sum of `octaves` value-noise octaves, normalised to [0, 1).
-at::Tensor fractal_noise(const at::Tensor& u, const at::Tensor& v, std::uint32_t seed,
-                         int octaves);
+at::Tensor fractal_noise(const at::Tensor& u, const at::Tensor& v, std::uint32_t seed, int octaves);
 
 // Surface albedo (N, 3) in [0, 1] for per-pixel material indices (N) and texture
 // coordinates in metres (N, 2).
