@@ -3,5 +3,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh --tests
-bash scripts/build.sh -DOMNIPOINT_BUILD_TESTS=ON -DOMNIPOINT_BUILD_BENCH=ON
+bash scripts/check_format.sh
+bash scripts/build.sh -DOMNIPOINT_BUILD_TESTS=ON -DOMNIPOINT_BUILD_BENCH=ON -DOMNIPOINT_WERROR=ON
 ctest --test-dir build --output-on-failure -j "$(nproc)"

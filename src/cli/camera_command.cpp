@@ -13,6 +13,7 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/camera_info.h"
 #include "omnipoint/camera/fit.h"
+#include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
 
@@ -40,7 +41,7 @@ struct CameraOptions {
   }
 
   camera::Camera camera() const {
-    if (!spec.empty()) return camera::parse_camera(spec);
+    if (!spec.empty()) return io::read_camera(spec);
     if (fov_deg == 0)
       throw std::invalid_argument(
           "give the camera with --camera SPEC or --fov DEG --width W --height H");

@@ -18,6 +18,7 @@
 
 #include "cli/commands.h"
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/predict/inputs.h"
 #include "omnipoint/predict/outputs.h"
@@ -111,7 +112,7 @@ void run_predict(const PredictCommandOptions& options) {
         "--sparse-depth " + options.sparse_depth +
         ": one file for several images; pass a folder with a file per image stem");
   predict::PredictOptions base;
-  if (!options.camera.empty()) base.camera = camera::parse_camera(options.camera);
+  if (!options.camera.empty()) base.camera = io::read_camera(options.camera);
   base.num_tokens = options.num_tokens;
   base.fit_model = options.fit_model == "none" ? "" : options.fit_model;
   const Model model =

@@ -19,6 +19,7 @@
 #include "omnipoint/augment/warp.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/sample.h"
+#include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/npy.h"
 
 namespace omnipoint::cli {
@@ -72,7 +73,7 @@ void add_reproject_command(CLI::App& app) {
     }
     const camera::Camera target =
         perspective ? camera::centred_pinhole(args->perspective, args->width, args->height)
-                    : camera::parse_camera(args->camera);
+                    : io::read_camera(args->camera);
     const at::Tensor rotation = augment::rotation_from_angles(args->yaw, args->pitch, args->roll);
     augment::P2AOptions options;
     options.supersample = args->supersample;

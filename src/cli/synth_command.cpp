@@ -15,6 +15,7 @@
 #include "omnipoint/data/synth/benchmark.h"
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/camera_file.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -86,7 +87,7 @@ void add_synth_command(CLI::App& app) {
     }
     if (args->camera.empty())
       throw std::invalid_argument("--camera is required (or --benchmark FILE)");
-    const auto camera = camera::parse_camera(args->camera);
+    const auto camera = io::read_camera(args->camera);
     const auto kind = data::synth::parse_scene_kind(args->scene);
     if (args->count < 1)
       throw std::invalid_argument("--count " + std::to_string(args->count) + ": expected >= 1");

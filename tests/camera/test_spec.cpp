@@ -4,8 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <functional>
 #include <stdexcept>
 
@@ -13,7 +11,6 @@
 
 namespace omnipoint::camera {
 namespace {
-namespace fs = std::filesystem;
 
 // Expects `action` to throw E whose message contains every one of `parts`.
 template <typename E>
@@ -31,21 +28,6 @@ void expect_error(const std::function<void()>& action, const std::vector<std::st
 void expect_bad_spec(const std::string& spec, const std::vector<std::string>& parts) {
   expect_error<std::invalid_argument>([&] { parse_camera(spec); }, parts);
 }
-
-class SpecFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("omnipoint_spec_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string write(const std::string& name, const std::string& content) {
-    const auto path = (dir_ / name).string();
-    std::ofstream(path) << content;
-    return path;
-  }
-  fs::path dir_;
-};
 
 TEST(CameraSpec, ColmapLine) {
   const auto camera = parse_camera("  PINHOLE 640 480 500 501 320 240\n");
@@ -136,42 +118,8 @@ TEST(CameraSpec, BadJson) {
 
 TEST(CameraSpec, EmptyOrUnrecognised) {
   expect_bad_spec("   ", {"empty camera spec"});
-  expect_error<std::runtime_error>(
-      [] { parse_camera("/no/such/cameras.txt"); },
-      {"'/no/such/cameras.txt'", "not a camera line", "existing file"});
-}
-
-TEST_F(SpecFiles, CamerasTxtFirstAndById) {
-  const auto path = write("cameras.txt",
-                          "# Camera list with one line of data per camera:\n"
-                          "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-                          "# Number of cameras: 2\n"
-                          "1 PINHOLE 640 480 500 500 320 240\n"
-                          "\n"
-                          "7 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n");
-  EXPECT_EQ(parse_camera(path).model_name(), "PINHOLE");
-  EXPECT_EQ(parse_camera(path + "#7").model_name(), "SIMPLE_RADIAL");
-  EXPECT_EQ(parse_camera(path + ":7").model_name(), "SIMPLE_RADIAL");
-  EXPECT_EQ(parse_camera(path + ":1").model_name(), "PINHOLE");
-  expect_bad_spec(path + "#3", {path, "no camera with id 3", "ids: 1 7"});
-  expect_bad_spec(path + "#x", {"camera id must be an integer"});
-}
-
-TEST_F(SpecFiles, SingleLineAndJsonFiles) {
-  EXPECT_EQ(parse_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(),
-            "FOV");
-  const auto json =
-      write("cam.json", R"({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []})");
-  EXPECT_EQ(parse_camera(json).model_name(), "EQUIRECTANGULAR");
-  expect_bad_spec(json + "#2", {"JSON camera file holds one camera"});
-}
-
-TEST_F(SpecFiles, BadFiles) {
-  expect_bad_spec(write("empty.txt", "# nothing\n"), {"contains no camera"});
-  expect_bad_spec(write("junk.txt", "hello world\n"), {"not a camera line"});
-  expect_bad_spec(write("bad.json", "{\"model\": \n"), {"bad.json", "not valid JSON"});
-  expect_bad_spec(write("badcount.txt", "1 PINHOLE 640 480 500 500\n"),
-                  {"PINHOLE", "expects 4 parameters"});
+  // File names are io::read_camera's (tests/io/test_camera_file.cpp).
+  expect_bad_spec("/no/such/cameras.txt", {"'/no/such/cameras.txt'", "not a camera line"});
 }
 
 }  // namespace

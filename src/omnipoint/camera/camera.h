@@ -3,12 +3,10 @@
 // validated at construction. Conventions (frame, pixel centres, COLMAP parameter orders) are
 // those of camera_model.h.
 //
-// Spec forms accepted by parse_camera:
+// Spec forms accepted by parse_camera (files holding them are read by io/camera_file.h):
 //   "PINHOLE 640 480 500 500 320 240"           a COLMAP cameras.txt line (MODEL W H PARAMS...)
 //   "1 PINHOLE 640 480 500 500 320 240"         the same with a leading camera id
 //   {"model": "PINHOLE", "width": 640, "height": 480, "params": [500, 500, 320, 240]}
-//   path/to/cameras.txt                         its first camera; `path#ID` or `path:ID` picks by id
-//   path/to/camera.json                         the JSON object above
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
@@ -70,9 +68,16 @@ class Camera {
 
 Camera make_camera(const std::string& model, int64_t width, int64_t height,
                    std::vector<double> params);
-// Parses any spec form above. Bad specs -> std::invalid_argument; unreadable files ->
-// std::runtime_error; both name the spec and what was expected.
+// Parses a spec string (the forms above). Bad specs -> std::invalid_argument naming the spec
+// and what was expected.
 Camera parse_camera(const std::string& spec);
+// Whether `spec` has the shape of a spec string (rather than, say, a file name).
+bool is_camera_line(const std::string& spec);
+// Parses the contents of a camera file: a cameras.txt ('#' comments, "ID MODEL W H PARAMS..."
+// lines; `id` picks one, empty = the first) or one JSON object. `source` names the file in
+// errors (std::invalid_argument).
+Camera parse_camera_file(const std::string& text, const std::string& source,
+                         const std::string& id = "");
 // PINHOLE camera with the given horizontal field of view (0 < fov < 180 degrees), square
 // pixels and the principal point at the image centre (the short form `--fov 90`).
 Camera centred_pinhole(double horizontal_fov_deg, int64_t width, int64_t height);

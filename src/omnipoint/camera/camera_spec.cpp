@@ -4,12 +4,10 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
 #include "omnipoint/camera/camera.h"
-#include "omnipoint/io/atomic_file.h"
 
 namespace omnipoint::camera {
 namespace {
@@ -150,17 +148,6 @@ Camera camera_from_text_file(const std::string& text, const std::string& path,
   throw std::invalid_argument(path + ": no camera with id " + id + " (ids:" + known + ")");
 }
 
-Camera camera_from_file(const std::string& path, const std::string& id) {
-  const std::string text = io::read_file(path);
-  if (trim(text).rfind('{', 0) == 0) {
-    if (!id.empty())
-      throw std::invalid_argument(path + ": a JSON camera file holds one camera; drop '#" + id +
-                                  "'");
-    return camera_from_json(text, path);
-  }
-  return camera_from_text_file(text, path, id);
-}
-
 // The shortest of %.15g / %.17g that parses back to exactly `value`.
 std::string format_double(double value) {
   char buffer[32];
@@ -175,28 +162,39 @@ Camera parse_camera(const std::string& spec) {
   const std::string text = trim(spec);
   if (text.empty()) {
     throw std::invalid_argument(
-        "empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...', a JSON object or a file");
+        "empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...' or a JSON object");
   }
   if (text[0] == '{') return camera_from_json(text, "camera spec");
   const auto tokens = split_whitespace(text);
   std::size_t model_index = 0;
   if (tokens.size() > 1 && looks_like_line(tokens, &model_index))
     return camera_from_tokens(tokens, model_index);
-
-  namespace fs = std::filesystem;
-  if (fs::is_regular_file(text)) return camera_from_file(text, "");
-  const auto separator = text.find_last_of("#:");
-  if (separator != std::string::npos && fs::is_regular_file(text.substr(0, separator))) {
-    const std::string id = text.substr(separator + 1);
-    if (!is_integer(id))
-      throw std::invalid_argument("camera spec '" + text +
-                                  "': camera id must be an integer, got '" + id + "'");
-    return camera_from_file(text.substr(0, separator), id);
-  }
   if (tokens.size() == 1 && is_model_name(tokens[0])) return camera_from_tokens(tokens, 0);
-  throw std::runtime_error("camera spec '" + text +
-                           "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON "
-                           "object, or an existing file");
+  throw std::invalid_argument("camera spec '" + text +
+                              "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...') or a JSON "
+                              "object");
+}
+
+bool is_camera_line(const std::string& spec) {
+  const std::string text = trim(spec);
+  if (text.empty() || text[0] == '{') return !text.empty();
+  const auto tokens = split_whitespace(text);
+  std::size_t model_index = 0;
+  return (tokens.size() > 1 && looks_like_line(tokens, &model_index)) ||
+         (tokens.size() == 1 && is_model_name(tokens[0]));
+}
+
+Camera parse_camera_file(const std::string& text, const std::string& source,
+                         const std::string& id) {
+  if (trim(text).rfind('{', 0) == 0) {
+    if (!id.empty())
+      throw std::invalid_argument(source + ": a JSON camera file holds one camera; drop '#" + id +
+                                  "'");
+    return camera_from_json(text, source);
+  }
+  if (!id.empty() && !is_integer(id))
+    throw std::invalid_argument(source + ": camera id must be an integer, got '" + id + "'");
+  return camera_from_text_file(text, source, id);
 }
 
 std::string Camera::to_spec() const {

@@ -1,4 +1,5 @@
 #include "omnipoint/data/loader.h"
+#include "omnipoint/io/camera_file.h"
 
 #include <ATen/ATen.h>
 
@@ -39,7 +40,7 @@ IndexedSource index_source(const DataSource& s) {
   if (s.kind == "synth") {
     if (s.cameras.empty())
       throw std::invalid_argument("synth data source: needs at least one camera spec");
-    for (const auto& spec : s.cameras) out.cameras.push_back(camera::parse_camera(spec));
+    for (const auto& spec : s.cameras) out.cameras.push_back(io::read_camera(spec));
     for (const auto& name : s.scenes) out.scenes.push_back(synth::parse_scene_kind(name));
     if (out.scenes.empty())
       throw std::invalid_argument("synth data source: needs at least one scene kind");

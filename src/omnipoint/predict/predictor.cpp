@@ -11,10 +11,10 @@
 #include <utility>
 
 #include "omnipoint/augment/a2p.h"
-#include "omnipoint/augment/teacher.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/infer/teacher.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/conditioning.h"
 #include "omnipoint/model/moge2.h"
@@ -98,7 +98,7 @@ NetworkGeometry run_network(const Model::Impl& impl, const at::Tensor& input,
 NetworkGeometry run_multi_view(const Model::Impl& impl, const at::Tensor& input,
                                const camera::Camera& camera, const at::Tensor& camera_rays,
                                int64_t num_tokens) {
-  const augment::Teacher teacher = augment::moge2_teacher(impl.moge2, num_tokens);
+  const augment::Teacher teacher = infer::moge2_teacher(impl.moge2, num_tokens);
   std::vector<at::Tensor> distances, masks;
   for (int64_t b = 0; b < input.size(0); ++b) {
     const augment::MergedPrediction merged =

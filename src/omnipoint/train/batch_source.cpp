@@ -1,4 +1,5 @@
 #include "omnipoint/train/batch_source.h"
+#include "omnipoint/io/camera_file.h"
 
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
@@ -8,7 +9,6 @@
 #include <stdexcept>
 
 #include "omnipoint/augment/p2a.h"
-#include "omnipoint/augment/teacher.h"
 #include "omnipoint/augment/virtual_camera.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/camera_info.h"
@@ -17,6 +17,7 @@
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/infer/teacher.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
 
@@ -106,7 +107,7 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     for (at::Tensor& parameter : teacher->parameters()) parameter.set_requires_grad(false);
     const int64_t tokens =
         config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
-    teacher_ = augment::omnipoint_teacher(teacher, tokens);
+    teacher_ = infer::omnipoint_teacher(teacher, tokens);
   }
 }
 
@@ -130,7 +131,7 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
         const SynthSource& synth = dataset.synth_source;
         const auto kind = data::synth::parse_scene_kind(
             synth.scenes[random.integer(0, static_cast<int>(synth.scenes.size()) - 1)]);
-        camera::Camera camera = camera::parse_camera(
+        camera::Camera camera = io::read_camera(
             synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)]);
         if (camera.width() != width || camera.height() != height)
           camera = camera.resized(width, height);

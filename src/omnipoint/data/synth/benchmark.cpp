@@ -1,4 +1,5 @@
 #include "omnipoint/data/synth/benchmark.h"
+#include "omnipoint/io/camera_file.h"
 
 #include <nlohmann/json.hpp>
 
@@ -42,7 +43,7 @@ BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& wh
       const auto count = split.at("count").get<int64_t>();
       std::vector<camera::Camera> cameras;
       for (const auto& spec : split.at("cameras"))
-        cameras.push_back(camera::parse_camera(spec.get<std::string>()));
+        cameras.push_back(io::read_camera(spec.get<std::string>()));
       std::vector<SceneKind> scenes;
       for (const auto& scene : split.at("scenes"))
         scenes.push_back(parse_scene_kind(scene.get<std::string>()));

@@ -11,10 +11,10 @@
 #include "omnipoint/model/moge2.h"
 #include "omnipoint/model/omnipoint_model.h"
 
-namespace omnipoint::augment {
+namespace omnipoint::infer {
 
-Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens,
-                          bool use_intrinsics = true);
-Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens);
+augment::Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens,
+                                   bool use_intrinsics = true);
+augment::Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens);
 
-}  // namespace omnipoint::augment
+}  // namespace omnipoint::infer

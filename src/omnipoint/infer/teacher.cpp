@@ -1,11 +1,11 @@
-#include "omnipoint/augment/teacher.h"
+#include "omnipoint/infer/teacher.h"
 
 #include <ATen/ATen.h>
 #include <c10/core/InferenceMode.h>
 
 #include "omnipoint/model/moge2_infer.h"
 
-namespace omnipoint::augment {
+namespace omnipoint::infer {
 namespace {
 
 // (h, w, 3) in [0, 1] -> (1, 3, h, w) on the model's device and dtype.
@@ -15,7 +15,8 @@ at::Tensor model_input(const at::Tensor& image, const at::TensorOptions& options
 
 }  // namespace
 
-Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens, bool use_intrinsics) {
+augment::Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens,
+                                   bool use_intrinsics) {
   return [model, num_tokens, use_intrinsics](const at::Tensor& image,
                                              const camera::Camera& camera) mutable {
     c10::InferenceMode inference;
@@ -26,7 +27,7 @@ Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens, bool 
       inputs.rays = camera.ray_map(reference.options()).rays.permute({2, 0, 1}).unsqueeze(0);
     const model::OmniPointOutput out = model->forward(inputs, num_tokens);
     const auto back = image.options();
-    TeacherPrediction prediction;
+    augment::TeacherPrediction prediction;
     prediction.rays = out.rays.squeeze(0).to(back);
     prediction.distance = out.points.squeeze(0).norm(2, -1).to(back);
     prediction.confident =
@@ -35,13 +36,13 @@ Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens, bool 
   };
 }
 
-Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens) {
+augment::Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens) {
   return [model, num_tokens](const at::Tensor& image, const camera::Camera&) mutable {
     const at::Tensor reference = model->parameters().front();
     const model::MoGe2Inference out =
         model::infer(model, model_input(image, reference.options()), num_tokens);
     const auto back = image.options();
-    TeacherPrediction prediction;
+    augment::TeacherPrediction prediction;
     prediction.rays = out.rays.squeeze(0).to(back);
     const at::Tensor distance = out.distance.squeeze(0).to(back);
     prediction.confident =
@@ -51,4 +52,4 @@ Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens) {
   };
 }
 
-}  // namespace omnipoint::augment
+}  // namespace omnipoint::infer

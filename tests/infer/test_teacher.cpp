@@ -8,7 +8,7 @@
 #include <string>
 
 #include "omnipoint/augment/a2p.h"
-#include "omnipoint/augment/teacher.h"
+#include "omnipoint/infer/teacher.h"
 #include "omnipoint/model/moge2.h"
 #include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_config.h"
@@ -31,7 +31,7 @@ TEST(Teacher, OmniPointTeacherReturnsTheModelsMetricDistanceAlongItsRays) {
   auto net = tiny_model();
   const PerspectiveView view = make_perspective_view(70, 20, 0, 40, 30);
   const at::Tensor image = at::rand({30, 40, 3});
-  const TeacherPrediction prediction = omnipoint_teacher(net, 12)(image, view.camera);
+  const TeacherPrediction prediction = infer::omnipoint_teacher(net, 12)(image, view.camera);
   ASSERT_EQ(prediction.distance.sizes(), at::IntArrayRef({30, 40}));
   ASSERT_EQ(prediction.rays.sizes(), at::IntArrayRef({30, 40, 3}));
   c10::InferenceMode inference;
@@ -45,7 +45,7 @@ TEST(Teacher, OmniPointTeacherReturnsTheModelsMetricDistanceAlongItsRays) {
   // A2P with it: the label lives inside the view's footprint only.
   const camera::Camera wide("EQUIRECTANGULAR", 64, 32, {});
   const auto result =
-      any_to_perspective(wide, at::rand({32, 64, 3}), view, omnipoint_teacher(net, 12));
+      any_to_perspective(wide, at::rand({32, 64, 3}), view, infer::omnipoint_teacher(net, 12));
   EXPECT_EQ(result.label.distance.sizes(), at::IntArrayRef({32, 64}));
   EXPECT_TRUE(at::isfinite(result.label.distance).all().item<bool>());
   EXPECT_LT(result.label.mask.sum().item<int64_t>(), 64 * 32 / 4);
@@ -68,7 +68,7 @@ TEST(Teacher, MoGe2TeacherReturnsInferDistancesWhereItsMaskHolds) {
     const at::Tensor confident =
         reference.mask.squeeze(0) & at::isfinite(reference.distance.squeeze(0));
     if (!confident.any().item<bool>()) continue;
-    const TeacherPrediction prediction = moge2_teacher(net, 12)(image, view.camera);
+    const TeacherPrediction prediction = infer::moge2_teacher(net, 12)(image, view.camera);
     EXPECT_TRUE(at::equal(prediction.confident, confident));
     EXPECT_TRUE(at::allclose(prediction.distance.masked_select(confident),
                              reference.distance.squeeze(0).masked_select(confident)));
