@@ -81,14 +81,8 @@ void append_line(const std::string& path, const json& record) {
 }
 
 void run_train(const TrainOptions& options) {
-  json config_json;
-  try {
-    config_json = json::parse(io::read_file(options.config_path));
-  } catch (const json::exception& e) {
-    throw std::invalid_argument("config " + options.config_path + ": not valid JSON (" + e.what() +
-                                ")");
-  }
-  const train::TrainConfig config = train::TrainConfig::from_json(config_json);
+  const train::TrainConfig config =
+      train::TrainConfig::from_text(io::read_file(options.config_path), options.config_path);
   if (options.curves_only) {
     const fs::path out_dir(config.output_dir);
     if (!fs::exists(out_dir / "log.jsonl"))

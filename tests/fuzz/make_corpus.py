@@ -1,11 +1,13 @@
 """Regenerates the fuzzing seed corpus (corpus/) and the hand-made malformed files
-(malformed/, with expected_errors.txt) replayed by tests/io/test_parser_corpus.cpp.
+(malformed/, with expected_errors.txt) replayed by tests/io/test_parser_corpus.cpp. Each
+folder is named after its parser in parsers.h.
 Run with Debian's Python: /usr/bin/python3 tests/fuzz/make_corpus.py"""
 import io
 import json
 import os
 import shutil
 import struct
+import zlib
 
 import numpy as np
 
@@ -33,6 +35,66 @@ def npy_raw(header, data=b""):
     return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header + data
 
 
+def ply_binary(points, colors=None, extra=b""):
+    header = b"ply\nformat binary_little_endian 1.0\ncomment seed\nelement vertex %d\n" % len(points)
+    header += b"property float x\nproperty float y\nproperty float z\n"
+    if colors:
+        header += b"property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    header += extra + b"end_header\n"
+    data = b""
+    for i, p in enumerate(points):
+        data += struct.pack("<3f", *p) + (bytes(colors[i]) if colors else b"")
+    return header + data
+
+
+def f32(*values):
+    return struct.pack("<%df" % len(values), *values)
+
+
+def png_chunk(kind, data):
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
+def png(text=(), itxt=(), width=2, height=2):
+    """A 16-bit grey PNG with tEXt (and uncompressed iTXt) chunks, as MoGe's depth.png."""
+    rows = b"".join(b"\x00" + struct.pack(">%dH" % width, *range(y, y + width)) for y in range(height))
+    body = png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 16, 0, 0, 0, 0))
+    for key, value in text:
+        body += png_chunk(b"tEXt", key + b"\x00" + value)
+    for key, value in itxt:
+        body += png_chunk(b"iTXt", key + b"\x00\x00\x00en\x00" + key + b"\x00" + value)
+    body += png_chunk(b"IDAT", zlib.compress(rows)) + png_chunk(b"IEND", b"")
+    return b"\x89PNG\r\n\x1a\n" + body
+
+
+def js(value):
+    return json.dumps(value, indent=1).encode()
+
+
+MINIMAL_TRAIN = {"model": {}, "data": {"datasets": [{"synth": {"cameras": ["PINHOLE 56 56 50 50 28 28"]}}]},
+                 "stages": [{"stage": 1, "steps": 10}]}
+FULL_TRAIN = {
+    "output_dir": "runs/small", "seed": 3, "threads": 1, "model": {"conditioning": True},
+    "init": {"from": "moge2", "path": "moge2.safetensors", "output": "xyz"},
+    "data": {"batch_size": 8, "image_size": [64, 48], "num_tokens": [16, 32],
+             "datasets": [{"weight": 1, "synth": {"scenes": ["indoor", "object"],
+                                                  "cameras": ["PINHOLE 64 48 50 50 32 24"]}},
+                          {"weight": 0.5, "folders": "data/samples"}]},
+    "conditions": {"probability": 0.9, "sparse_ratio": [0.0005, 0.001]},
+    "augment": {"p2a": True, "p2a_probability": 0.02, "a2p": True, "a2p_probability": 1,
+                "a2p_teacher": "stage1.safetensors", "a2p_teacher_tokens": 0},
+    "loss": {"point_loss": "naive", "align_trunc": 1,
+             "weights": {"point": 1, "ray": 1, "metric": 1, "normal": 1, "local": 1, "mask": 1, "gauge": 0},
+             "local": {"levels": [4, 16, 64], "patches_per_item": 16, "min_points": 32}},
+    "optimizer": {"weight_decay": 0.01, "betas": [0.9, 0.999], "eps": 1e-8, "grad_clip": 1.0},
+    "ema": {"decay": 0.999},
+    "stages": [{"stage": 1, "steps": 1e4, "lr_backbone": 1e-4, "lr_heads": 1e-5, "decay_every": 2000,
+                "decay_factor": 0.5}, {"stage": 2, "steps": 5}, {"stage": 3, "steps": 5}],
+    "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4, "max_nonfinite_steps": 10}
+K = [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]
+IDENTITY_4X4 = b"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
+NEAR_FAR = ((b"near", b"0.5"), (b"far", b"80.25"))
+
 SEEDS = {
     "safetensors/empty.safetensors": safetensors({}),
     "safetensors/metadata_only.safetensors": safetensors({"__metadata__": {"format": "moge2", "config": "{}"}}),
@@ -52,7 +114,53 @@ SEEDS = {
     "npy/b1.npy": npy(np.array([True, False])),
     "npy/i4_empty.npy": npy(np.zeros((0, 3), dtype="<i4")),
     "npy/i8.npy": npy(np.array([1, -1], dtype="<i8")),
+    "ply/binary_xyz.ply": ply_binary([(0, 0, 1), (1.5, -2, 3)]),
+    "ply/binary_rgb.ply": ply_binary([(0, 0, 1), (1, 2, 3)], [(255, 0, 7), (1, 2, 3)]),
+    "ply/binary_face.ply": ply_binary([(0, 0, 1)], extra=b"element face 0\nproperty list uchar int vertex_indices\n"),
+    "ply/ascii_xyz.ply": b"ply\r\nformat ascii 1.0\r\nelement vertex 2\r\nproperty float x\r\n"
+                         b"property float y\r\nproperty float z\r\nend_header\r\n0 0 1\r\n-1.5e2 2 .5\r\n",
+    "ply/ascii_types.ply": b"ply\nformat ascii 1.0\nobj_info test\nelement vertex 1\nproperty double x\n"
+                           b"property int16 intensity\nproperty double y\nproperty uint z\nproperty uchar red\n"
+                           b"property uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int i\n"
+                           b"end_header\n1 -7 2 3 10 20 30\n3 0 1 2\n",
+    "ply/binary_types.ply": b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty char a\n"
+                            b"property int8 b\nproperty short c\nproperty ushort d\nproperty int32 e\n"
+                            b"property uint32 f\nproperty float64 x\nproperty float32 y\nproperty uint8 g\n"
+                            b"property uint16 h\nproperty float z\nend_header\n"
+                            + struct.pack("<bbhHiIdfBHf", -1, 2, -3, 4, -5, 6, 0.5, 1.5, 7, 8, 2.5),
+    "ply/empty.ply": b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+                     b"property float z\nend_header\n",
+    "kitti_bin/one.bin": f32(1, 2, 3, 0.5),
+    "kitti_bin/three.bin": f32(1, 2, 3, 0.5, -4, 5.5, 0, 1, 1e3, -1e-3, 2, 0),
+    "rigid_transform/identity.txt": IDENTITY_4X4,
+    "rigid_transform/kitti_3x4.txt": b"7.5e-03,-9.9e-01,-6.1e-04,-4.0e-03,1.4e-02,7.2e-04,-9.9e-01,-7.6e-02,"
+                                     b"9.9e-01,7.5e-03,1.4e-02,-2.7e-01\n",
+    "rigid_transform/tabs.txt": b"\t1\t0\t0\t0.5\n 0 1 0 -0.25\n0 0 1 +1.0\n0 0 0 1",
+    "camera/line.txt": b"PINHOLE 640 480 500 500 320 240\n",
+    "camera/cameras.txt": b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+                          b"1 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n\n"
+                          b"2 OPENCV 640 480 500 501 320 240 -0.1 0.01 0.001 -0.001\n"
+                          b"3 OPENCV_FISHEYE 640 480 300 300 320 240 0.1 0.01 0 0\n"
+                          b"4 EQUIRECTANGULAR 64 32\n",
+    "camera/fisheyes.txt": b"1 FOV 640 480 300 300 320 240 0.9\n2 MEI 640 480 300 300 320 240 0.9 0 0 0 0\n"
+                           b"3 UCM 640 480 300 300 320 240 0.6\n4 DOUBLE_SPHERE 640 480 300 300 320 240 -0.2 0.6\n"
+                           b"5 EQUIRECTANGULAR 64 32 -1 1 -0.5 0.5\n6 SIMPLE_PINHOLE 64 48 50 32 24\n",
+    "camera/camera.json": js({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []}),
+    "camera/pinhole.json": js({"model": "PINHOLE", "width": 64, "height": 48, "params": [50, 50.5, 32, 24]}),
+    "train_config/minimal.json": js(MINIMAL_TRAIN),
+    "train_config/full.json": js(FULL_TRAIN),
+    "png_text/moge_depth.png": png(NEAR_FAR),
+    "png_text/unit_itxt.png": png(((b"near", b"1e-2"), (b"far", b"1e3"), (b"unit", b"0.001")),
+                                  itxt=((b"Software", b"seed"),)),
+    "png_text/itxt.png": png(((b"unit", b"2"),), itxt=NEAR_FAR),
+    "moge_meta/meta.json": js({"intrinsics": K}),
+    "moge_meta/extra.json": js({"intrinsics": K, "depth_unit": 1.0, "name": "scene_a"}),
+    "sample_meta/line.json": js({"format": "omnipoint-sample-1", "camera": "PINHOLE 16 12 14 14 8 6", "metric": True}),
+    "sample_meta/object.json": js({"camera": {"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []},
+                                   "scene": {"kind": "indoor"}}),
+    "sample_meta/fisheye.json": js({"camera": "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0", "metric": False}),
 }
+
 
 F32 = tensor("F32", [2], 0, 8)
 MALFORMED = {  # name: (bytes, fragment the error message must contain)
@@ -100,6 +208,71 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "npy/fortran.npy": (npy(np.asfortranarray(np.zeros((2, 2), "<f4"))), "Fortran"),
     "npy/bad_dict.npy": (npy_raw(b"{'descr': '<f4', 'shape': (1,) }\n", bytes(4)), "lacks"),
     "npy/version9.npy": (b"\x93NUMPY\x09\x00" + bytes(8), "version"),
+    "ply/not_ply.ply": (b"plx\nformat ascii 1.0\nend_header\n", "the file does not start with 'ply'"),
+    "ply/big_endian.ply": (b"ply\nformat binary_big_endian 1.0\nelement vertex 0\nend_header\n",
+                           "format 'binary_big_endian'"),
+    "ply/list_vertex.ply": (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float x\nend_header\n",
+                            "list property in the vertex element"),
+    "ply/truncated.ply": (ply_binary([(0, 0, 1), (1, 2, 3)])[:-5], "PLY file is truncated: 2 vertices"),
+    "ply/bad_value.ply": (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                          b"property float z\nend_header\n1 2 zz\n", "has a bad or missing value 'zz'"),
+    "ply/colour_300.ply": (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                           b"property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+                           b"end_header\n1 2 3 300 0 0\n", "has a colour outside 0..255"),
+    "ply/no_z.ply": (b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nend_header\n",
+                     "lacks one of the properties x, y, z"),
+    "ply/no_end_header.ply": (b"ply\nformat ascii 1.0\nelement vertex 0\n", "no end_header line"),
+    "ply/huge_count.ply": (b"ply\nformat ascii 1.0\nelement vertex 999999999999\nproperty float x\n"
+                           b"property float y\nproperty float z\nend_header\n1 2 3\n", "999999999999 vertices declared"),
+    "kitti_bin/five_bytes.bin": (b"12345", "5 bytes is not a multiple of 16"),
+    "kitti_bin/empty.bin": (b"", "0 bytes is not a multiple of 16"),
+    "kitti_bin/twenty.bin": (f32(1, 2, 3, 4, 5), "20 bytes is not a multiple of 16"),
+    "rigid_transform/nine.txt": (b"1 0 0 0 1 0 0 0 1", "expected 16 numbers (4x4) or 12 (3x4), got 9"),
+    "rigid_transform/word.txt": (b"1 0 0 x0\n", "\"x0\" is not a number"),
+    "rigid_transform/nan.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"nan 0 0 0\n", 1), "expected a finite 4x4"),
+    "rigid_transform/overflow.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"1e999 0 0 0\n", 1),
+                                     "\"1e999\" is not a number"),
+    "camera/unknown_model.txt": (b"1 NOPE 640 480 1 2 3\n", "unknown camera model 'NOPE'"),
+    "camera/bad_json.json": (b'{"model": "PINHOLE", "width": 64', "not valid JSON"),
+    "camera/comments_only.txt": (b"# nothing here\n\n", "contains no camera"),
+    "camera/param_count.txt": (b"PINHOLE 640 480 500 500 320\n", "PINHOLE expects 4 parameters (fx fy cx cy), got 3"),
+    "camera/not_a_line.txt": (b"# header\nhello world\n1 PINHOLE 640 480 500 500 320 240\n", "not a camera line"),
+    "camera/json_size.json": (js({"model": "PINHOLE", "width": 0, "height": 48, "params": [1, 1, 3, 4]}),
+                              "image size must be positive"),
+    "camera/width_float.txt": (b"PINHOLE 640.5 480 500 500 320 240\n", "width must be an integer"),
+    "train_config/not_json.json": (b'{"stages": [', "not valid JSON"),
+    "train_config/unknown_key.json": (js(dict(MINIMAL_TRAIN, bogus=1)), "unknown key \"bogus\""),
+    "train_config/threads_huge.json": (js(dict(MINIMAL_TRAIN, threads=1e300)), "config.threads: expected an integer in range"),
+    "train_config/steps_fraction.json": (js(dict(MINIMAL_TRAIN, stages=[{"stage": 1, "steps": 1.5}])),
+                                         "stages[0].steps: expected an integer in range"),
+    "train_config/no_stages.json": (js({k: v for k, v in MINIMAL_TRAIN.items() if k != "stages"}),
+                                    "expected a non-empty array of training stages"),
+    "train_config/seed_negative.json": (js(dict(MINIMAL_TRAIN, seed=-1)), "config.seed: expected an integer in range"),
+    "train_config/tokens_huge.json": (js(dict(MINIMAL_TRAIN, data=dict(MINIMAL_TRAIN["data"], num_tokens=[1, 1e30]))),
+                                      "data.num_tokens: expected an integer in range"),
+    "png_text/bad_signature.png": (b"\x89PNX\r\n\x1a\n" + png(NEAR_FAR)[8:], "bad signature"),
+    "png_text/crc.png": (png(NEAR_FAR).replace(b"0.5", b"0.6", 1), "CRC mismatch in tEXt"),
+    "png_text/truncated.png": (png(NEAR_FAR)[:40], "truncated chunk"),
+    "png_text/long_chunk.png": (png(NEAR_FAR)[:8] + struct.pack(">I", 1 << 30) + b"IHDR" + bytes(20),
+                                "chunk longer than the file"),
+    "png_text/no_near.png": (png(((b"far", b"2"),)), "no 'near' text chunk"),
+    "png_text/near_word.png": (png(((b"near", b"close"), (b"far", b"2"))), "text chunk 'near' is not a number: close"),
+    "png_text/near_suffix.png": (png(((b"near", b"1m"), (b"far", b"2"))), "text chunk 'near' is not a number: 1m"),
+    "png_text/far_below.png": (png(((b"near", b"2"), (b"far", b"1"))), "expected 0 < near < far"),
+    "png_text/unit_negative.png": (png(NEAR_FAR + ((b"unit", b"-1"),)), "expected a finite unit > 0"),
+    "moge_meta/not_json.json": (b"{intrinsics}", "not valid JSON"),
+    "moge_meta/no_intrinsics.json": (js({"K": K}), "needs \"intrinsics\" as a 3x3 array"),
+    "moge_meta/strings.json": (js({"intrinsics": [["a", 0, 0.5], [0, 1, 0.5], [0, 0, 1]]}),
+                               "needs \"intrinsics\" as a 3x3 array"),
+    "moge_meta/zero_focal.json": (js({"intrinsics": [[0, 0, 0.5], [0, 1, 0.5], [0, 0, 1]]}),
+                                  "bad intrinsics: PINHOLE: focal length fx must be > 0"),
+    "sample_meta/not_json.json": (b"camera: PINHOLE", "meta.json is not valid JSON"),
+    "sample_meta/no_camera.json": (js({"metric": True}), "meta.json has no \"camera\""),
+    "sample_meta/bad_camera.json": (js({"camera": "NO_SUCH_MODEL 16 12 1 2 3"}),
+                                    "unknown or invalid camera: unknown camera model 'NO_SUCH_MODEL'"),
+    "sample_meta/metric_number.json": (js({"camera": "PINHOLE 16 12 14 14 8 6", "metric": 1}),
+                                       "\"metric\" must be true or false, got 1"),
+    "sample_meta/array.json": (b"[1, 2]", "meta.json has no \"camera\""),
 }
 
 

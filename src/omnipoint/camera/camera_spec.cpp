@@ -97,6 +97,17 @@ bool looks_like_line(const std::vector<std::string>& tokens, std::size_t* model_
   return false;
 }
 
+// The model's own errors (size, parameters) prefixed with `source`, so that a file's errors
+// name the file.
+template <typename Make>
+Camera named(const std::string& source, Make make) {
+  try {
+    return make();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(source + ": " + e.what());
+  }
+}
+
 Camera camera_from_json(const std::string& text, const std::string& source) {
   nlohmann::json json;
   try {
@@ -118,8 +129,10 @@ Camera camera_from_json(const std::string& text, const std::string& source) {
       throw std::invalid_argument(source + ": params must be numbers; " + expected);
     params.push_back(value.get<double>());
   }
-  return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
-                json["height"].get<int64_t>(), std::move(params));
+  return named(source, [&] {
+    return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
+                  json["height"].get<int64_t>(), std::move(params));
+  });
 }
 
 // A cameras.txt file: '#' comments, then "ID MODEL W H PARAMS..." lines (or one "MODEL W H
@@ -139,7 +152,8 @@ Camera camera_from_text_file(const std::string& text, const std::string& path,
           "'");
     }
     const std::string line_id = model_index == 1 ? tokens[0] : "";
-    if (id.empty() || line_id == id) return camera_from_tokens(tokens, model_index);
+    if (id.empty() || line_id == id)
+      return named(path, [&] { return camera_from_tokens(tokens, model_index); });
     ids.push_back(line_id);
   }
   if (id.empty()) throw std::invalid_argument(path + ": contains no camera");

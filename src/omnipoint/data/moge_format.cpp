@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -72,30 +71,71 @@ void write_moge_depth(const std::string& path, const at::Tensor& depth) {
   io::write_file_atomically(path, [&](std::ostream& out) { out.write(png.data(), png.size()); });
 }
 
-at::Tensor read_moge_depth(const std::string& path) {
-  const auto text = read_png_text(io::read_file(path), path);
-  const auto number = [&](const char* key) {
+MogeDepthRange parse_moge_depth_range(const std::string& png, const std::string& name) {
+  const auto text = read_png_text(png, name);
+  const auto number = [&](const char* key, bool required) {
     const auto it = text.find(key);
-    if (it == text.end())
-      throw std::runtime_error(path + ": no '" + key + "' text chunk (not a MoGe depth PNG)");
-    try {
-      return std::stod(it->second);
-    } catch (const std::exception&) {
-      throw std::runtime_error(path + ": text chunk '" + key + "' is not a number: " + it->second);
+    if (it == text.end()) {
+      if (!required) return 1.0;
+      throw std::runtime_error(name + ": no '" + key + "' text chunk (not a MoGe depth PNG)");
     }
+    try {
+      std::size_t used = 0;
+      const double value = std::stod(it->second, &used);
+      if (used == it->second.size()) return value;
+    } catch (const std::exception&) {  // std::invalid_argument, std::out_of_range
+    }
+    throw std::runtime_error(name + ": text chunk '" + key + "' is not a number: " + it->second);
   };
+  MogeDepthRange range;
+  range.near = number("near", true);
+  range.far = number("far", true);
+  range.unit = number("unit", false);
+  if (!(range.near > 0) || !(range.far > range.near) || !std::isfinite(range.far))
+    throw std::runtime_error(name + ": expected 0 < near < far, got " + shortest(range.near) +
+                             ", " + shortest(range.far));
+  if (!(range.unit > 0) || !std::isfinite(range.unit))
+    throw std::runtime_error(name + ": expected a finite unit > 0, got " + shortest(range.unit));
+  return range;
+}
+
+at::Tensor read_moge_depth(const std::string& path) {
+  const MogeDepthRange range = parse_moge_depth_range(io::read_file(path), path);
   MogeDepthCode code;
-  code.near = number("near");
-  code.far = number("far");
-  if (!(code.near > 0) || !(code.far > code.near) || !std::isfinite(code.far))
-    throw std::runtime_error(path + ": expected 0 < near < far, got " + shortest(code.near) + ", " +
-                             shortest(code.far));
+  code.near = range.near;
+  code.far = range.far;
   auto values = io::read_image_values(path);
   if (values.dim() != 2) throw std::runtime_error(path + ": expected a single-channel 16-bit PNG");
   code.values = values.to(at::kInt);
   auto depth = decode_moge_depth(code);
-  if (text.count("unit")) depth = depth * static_cast<float>(number("unit"));
+  if (range.unit != 1) depth = depth * static_cast<float>(range.unit);
   return depth;
+}
+
+camera::Camera parse_moge_meta(const std::string& text, int64_t width, int64_t height,
+                               const std::string& name) {
+  const auto fail = [&](const std::string& why) { throw std::runtime_error(name + ": " + why); };
+  nlohmann::json meta;
+  try {
+    meta = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail(std::string("not valid JSON: ") + e.what());
+  }
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  try {
+    const auto& k = meta.at("intrinsics");
+    fx = k.at(0).at(0).get<double>() * static_cast<double>(width);
+    fy = k.at(1).at(1).get<double>() * static_cast<double>(height);
+    cx = k.at(0).at(2).get<double>() * static_cast<double>(width);
+    cy = k.at(1).at(2).get<double>() * static_cast<double>(height);
+  } catch (const nlohmann::json::exception& e) {
+    fail(std::string("needs \"intrinsics\" as a 3x3 array: ") + e.what());
+  }
+  try {
+    return camera::make_camera("PINHOLE", width, height, {fx, fy, cx, cy});
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(name + ": bad intrinsics: " + e.what());
+  }
 }
 
 std::vector<std::string> list_moge_instances(const std::string& root) {
@@ -122,9 +162,9 @@ Sample read_moge_instance(const std::string& folder_name, bool metric) {
   const auto fail = [&](const std::string& why) {
     throw std::runtime_error("MoGe instance " + folder_name + ": " + why);
   };
-  nlohmann::json meta;
+  std::string meta;
   try {
-    meta = nlohmann::json::parse(io::read_file((folder / "meta.json").string()));
+    meta = io::read_file((folder / "meta.json").string());
   } catch (const std::exception& e) {
     fail(std::string("meta.json unreadable: ") + e.what());
   }
@@ -132,27 +172,13 @@ Sample read_moge_instance(const std::string& folder_name, bool metric) {
   const auto depth = read_moge_depth((folder / "depth.png").string());
   const int64_t h = image.size(0), w = image.size(1);
   if (depth.size(0) != h || depth.size(1) != w) fail("depth.png and image.jpg sizes differ");
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  try {
-    const auto& k = meta.at("intrinsics");
-    fx = k.at(0).at(0).get<double>() * w;
-    fy = k.at(1).at(1).get<double>() * h;
-    cx = k.at(0).at(2).get<double>() * w;
-    cy = k.at(1).at(2).get<double>() * h;
-  } catch (const std::exception& e) {
-    fail(std::string("meta.json needs \"intrinsics\" as a 3x3 array: ") + e.what());
-  }
-  std::optional<camera::Camera> cam;
-  try {
-    cam = camera::make_camera("PINHOLE", w, h, {fx, fy, cx, cy});
-  } catch (const std::exception& e) {
-    fail(std::string("bad intrinsics: ") + e.what());
-  }
-  const auto rays = cam->ray_map(at::kFloat);
+  const camera::Camera cam =
+      parse_moge_meta(meta, w, h, "MoGe instance " + folder_name + ": meta.json");
+  const auto rays = cam.ray_map(at::kFloat);
   const auto rz = rays.rays.select(-1, 2);
   const auto mask = at::isfinite(depth) & (depth > 0) & rays.valid;
   const auto distance = at::where(mask, depth / rz, at::zeros_like(depth));
-  Sample sample{*cam, image, distance, mask, metric};
+  Sample sample{cam, image, distance, mask, metric};
   try {
     validate_sample(sample, "MoGe instance " + folder_name);
   } catch (const std::invalid_argument& e) {

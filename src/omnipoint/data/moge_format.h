@@ -30,6 +30,21 @@ MogeDepthCode encode_moge_depth(const at::Tensor& depth, double max_range = 1e5)
 // float32 (H, W): NaN unknown, +inf infinity.
 at::Tensor decode_moge_depth(const MogeDepthCode& code);
 
+// The depth range a MoGe depth PNG carries in its text chunks: near, far and the optional
+// unit (1 when absent). `png` is the file's bytes; a stream that is not a PNG, a missing or
+// non-numeric chunk, or not 0 < near < far (finite) and unit > 0 (finite) ->
+// std::runtime_error naming `name`.
+struct MogeDepthRange {
+  double near = 0, far = 0, unit = 1;
+};
+MogeDepthRange parse_moge_depth_range(const std::string& png, const std::string& name);
+
+// The PINHOLE camera of an instance's meta.json text ({"intrinsics": 3x3 K normalised by the
+// image size}) for an image of width x height. Bad JSON, a K that is not 3x3 numbers or
+// intrinsics no camera has -> std::runtime_error naming `name`.
+camera::Camera parse_moge_meta(const std::string& text, int64_t width, int64_t height,
+                               const std::string& name);
+
 void write_moge_depth(const std::string& path, const at::Tensor& depth);
 at::Tensor read_moge_depth(const std::string& path);
 

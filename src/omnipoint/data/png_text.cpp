@@ -10,7 +10,9 @@ namespace {
 constexpr char kSignature[] = "\x89PNG\r\n\x1a\n";
 constexpr std::size_t kSignatureSize = 8;
 
-std::uint32_t crc32(const std::string& bytes) {
+}  // namespace
+
+std::uint32_t png_crc32(const std::string& bytes) {
   static const auto table = [] {
     std::array<std::uint32_t, 256> t{};
     for (std::uint32_t n = 0; n < 256; ++n) {
@@ -24,6 +26,8 @@ std::uint32_t crc32(const std::string& bytes) {
   for (unsigned char b : bytes) c = table[(c ^ b) & 0xFF] ^ (c >> 8);
   return c ^ 0xFFFFFFFFu;
 }
+
+namespace {
 
 std::uint32_t read_u32(const std::string& s, std::size_t at) {
   return (std::uint32_t(static_cast<unsigned char>(s[at])) << 24) |
@@ -57,7 +61,7 @@ void walk(const std::string& png, const std::string& name, Visit visit) {
     const std::size_t length = read_u32(png, at);
     if (length > png.size() - at - 12) fail("chunk longer than the file");
     const std::string type = png.substr(at + 4, 4);
-    if (crc32(png.substr(at + 4, 4 + length)) != read_u32(png, at + 8 + length))
+    if (png_crc32(png.substr(at + 4, 4 + length)) != read_u32(png, at + 8 + length))
       fail("CRC mismatch in " + type);
     visit(Chunk{type, at + 8, length});
     ended = type == "IEND";
@@ -99,7 +103,7 @@ std::string add_png_text(const std::string& png, const std::map<std::string, std
     if (keyword.empty() || keyword.size() > 79 || keyword.find('\0') != std::string::npos)
       throw std::invalid_argument("PNG text keyword '" + keyword + "': expected 1-79 characters");
     const std::string body = "tEXt" + keyword + std::string(1, '\0') + value;
-    chunks += u32(static_cast<std::uint32_t>(body.size() - 4)) + body + u32(crc32(body));
+    chunks += u32(static_cast<std::uint32_t>(body.size() - 4)) + body + u32(png_crc32(body));
   }
   return png.substr(0, after_header) + chunks + png.substr(after_header);
 }

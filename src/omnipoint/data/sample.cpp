@@ -4,7 +4,6 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
-#include <optional>
 #include <stdexcept>
 
 #include "omnipoint/io/atomic_file.h"
@@ -52,30 +51,46 @@ void validate_sample(const Sample& s, const std::string& what) {
   if (!s.mask.any().item<bool>()) fail("no labelled pixel");
 }
 
+SampleMeta parse_sample_meta(const std::string& text, const std::string& name) {
+  const auto fail = [&](const std::string& why) { throw std::runtime_error(name + ": " + why); };
+  nlohmann::json meta;
+  try {
+    meta = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail(std::string("meta.json is not valid JSON: ") + e.what());
+  }
+  if (!meta.is_object() || !meta.contains("camera")) fail("meta.json has no \"camera\"");
+  // meta.value("metric", false) would throw nlohmann's type_error for a non-bool.
+  const auto metric = meta.find("metric");
+  if (metric != meta.end() && !metric->is_boolean())
+    fail("meta.json \"metric\" must be true or false, got " + metric->dump());
+  const auto& spec = meta.at("camera");
+  try {
+    return {camera::parse_camera(spec.is_string() ? spec.get<std::string>() : spec.dump()),
+            metric != meta.end() && metric->get<bool>()};
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(name + ": unknown or invalid camera: " + e.what());
+  }
+}
+
 Sample read_sample(const std::string& folder_name) {
   const fs::path folder(folder_name);
   const auto fail = [&](const std::string& why) -> void {
     throw std::runtime_error("sample " + folder_name + ": " + why);
   };
   if (!fs::is_directory(folder)) fail("not a folder");
-  nlohmann::json meta;
+  std::string meta_text;
   try {
-    meta = nlohmann::json::parse(io::read_file((folder / "meta.json").string()));
+    meta_text = io::read_file((folder / "meta.json").string());
   } catch (const std::exception& e) {
     fail(std::string("meta.json unreadable: ") + e.what());
   }
-  if (!meta.is_object() || !meta.contains("camera")) fail("meta.json has no \"camera\"");
-  std::optional<camera::Camera> cam;
-  try {
-    const auto& spec = meta["camera"];
-    cam = camera::parse_camera(spec.is_string() ? spec.get<std::string>() : spec.dump());
-  } catch (const std::exception& e) {
-    fail(std::string("unknown or invalid camera: ") + e.what());
-  }
+  const SampleMeta meta = parse_sample_meta(meta_text, "sample " + folder_name);
+  const camera::Camera* cam = &meta.camera;
   const int64_t h = cam->height(), w = cam->width();
   const auto image_path = first_existing(folder, {"image.png", "image.jpg", "image.jpeg"});
   if (image_path.empty()) fail("no image.png or image.jpg");
-  Sample sample{*cam, {}, {}, {}, meta.value("metric", false)};
+  Sample sample{*cam, {}, {}, {}, meta.metric};
   try {
     sample.image = io::read_image(image_path);
     if (sample.image.size(0) != h || sample.image.size(1) != w)

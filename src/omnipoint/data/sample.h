@@ -24,6 +24,16 @@ struct Sample {
   bool metric = false;  // distances in metres (else up to an unknown scale)
 };
 
+// What meta.json says: the camera and whether distances are metric ("metric": bool, false
+// when absent).
+struct SampleMeta {
+  camera::Camera camera;
+  bool metric = false;
+};
+// meta.json's text; not JSON, no "camera", an unknown or invalid camera or a "metric" that is
+// not a bool -> std::runtime_error naming `name`.
+SampleMeta parse_sample_meta(const std::string& text, const std::string& name);
+
 // Reads and validates a sample folder. Missing or corrupt files, sizes that disagree with
 // the camera, NaN or negative distances, an unknown camera -> std::runtime_error naming the
 // folder and the problem.

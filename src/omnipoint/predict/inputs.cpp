@@ -3,15 +3,10 @@
 
 #include <ATen/ATen.h>
 
-#include <algorithm>
-#include <cctype>
-#include <cstring>
 #include <filesystem>
-#include <sstream>
 #include <stdexcept>
-#include <vector>
 
-#include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/file_name.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/ply.h"
@@ -19,13 +14,6 @@
 namespace omnipoint::predict {
 
 namespace {
-
-std::string extension_of(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 at::Tensor finite_points(const at::Tensor& points, const std::string& path) {
   if (points.dim() != 2 || points.size(1) != 3 || points.size(0) == 0)
@@ -35,59 +23,11 @@ at::Tensor finite_points(const at::Tensor& points, const std::string& path) {
 
 }  // namespace
 
-at::Tensor read_kitti_bin(const std::string& path) {
-  const std::string bytes = io::read_file(path);
-  constexpr size_t kRecord = 4 * sizeof(float);
-  if (bytes.empty() || bytes.size() % kRecord != 0)
-    throw std::invalid_argument("sparse depth " + path +
-                                ": a KITTI .bin holds float32 x, y, z, intensity records (" +
-                                std::to_string(bytes.size()) + " bytes is not a multiple of 16)");
-  const int64_t count = static_cast<int64_t>(bytes.size() / kRecord);
-  at::Tensor records = at::empty({count, 4}, at::kFloat);
-  std::memcpy(records.data_ptr<float>(), bytes.data(), bytes.size());
-  return records.slice(1, 0, 3).contiguous();
-}
-
-at::Tensor read_rigid_transform(const std::string& path) {
-  at::Tensor matrix;
-  if (extension_of(path) == ".npy") {
-    matrix = io::read_npy(path).to(at::kDouble);
-  } else {
-    std::string text = io::read_file(path);
-    std::replace(text.begin(), text.end(), ',', ' ');
-    std::istringstream stream(text);
-    std::vector<double> values;
-    std::string token;
-    while (stream >> token) {
-      try {
-        size_t used = 0;
-        values.push_back(std::stod(token, &used));
-        if (used != token.size()) throw std::invalid_argument(token);
-      } catch (const std::exception&) {
-        throw std::invalid_argument("camera-from-LiDAR " + path + ": \"" + token +
-                                    "\" is not a number");
-      }
-    }
-    if (values.size() != 12 && values.size() != 16)
-      throw std::invalid_argument("camera-from-LiDAR " + path +
-                                  ": expected 16 numbers (4x4) or 12 (3x4), got " +
-                                  std::to_string(values.size()));
-    matrix = at::tensor(values, at::kDouble).view({-1, 4});
-  }
-  if (matrix.dim() == 2 && matrix.size(0) == 3 && matrix.size(1) == 4)
-    matrix = at::cat({matrix, at::tensor({0.0, 0.0, 0.0, 1.0}, at::kDouble).view({1, 4})});
-  if (matrix.dim() != 2 || matrix.size(0) != 4 || matrix.size(1) != 4 ||
-      !at::isfinite(matrix).all().item<bool>())
-    throw std::invalid_argument("camera-from-LiDAR " + path +
-                                ": expected a finite 4x4 (or 3x4) matrix");
-  return matrix;
-}
-
 SparseDepthInput read_sparse_depth(const std::string& path,
                                    const std::string& camera_from_lidar_path) {
   if (!std::filesystem::is_regular_file(path))
     throw std::runtime_error("sparse depth " + path + ": no such file");
-  const std::string ext = extension_of(path);
+  const std::string ext = io::lower_extension(path);
   SparseDepthInput input;
   if (ext == ".png" || ext == ".exr" || ext == ".npy") {
     if (!camera_from_lidar_path.empty())

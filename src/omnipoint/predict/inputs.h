@@ -14,6 +14,7 @@
 
 #include <string>
 
+#include "omnipoint/io/point_cloud.h"
 #include "omnipoint/predict/predictor.h"
 
 namespace omnipoint::predict {
@@ -21,10 +22,9 @@ namespace omnipoint::predict {
 SparseDepthInput read_sparse_depth(const std::string& path,
                                    const std::string& camera_from_lidar_path = "");
 
-// (4, 4) float64 camera-from-LiDAR transform.
-at::Tensor read_rigid_transform(const std::string& path);
-
-// KITTI .bin scan as (N, 3) float32 points (intensity dropped).
-at::Tensor read_kitti_bin(const std::string& path);
+// The LiDAR file readers live in io (io/point_cloud.h): the (4, 4) float64 camera-from-LiDAR
+// transform and a KITTI .bin scan as (N, 3) float32 points.
+using io::read_kitti_bin;
+using io::read_rigid_transform;
 
 }  // namespace omnipoint::predict

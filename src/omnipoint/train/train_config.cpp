@@ -1,7 +1,10 @@
 #include "omnipoint/train/train_config.h"
 
+#include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
+#include <type_traits>
 
 namespace omnipoint::train {
 namespace {
@@ -26,14 +29,60 @@ void check_keys(const json& object, const std::set<std::string>& allowed,
     if (!allowed.count(item.key())) fail(where, "unknown key \"" + item.key() + "\"");
 }
 
+// A whole number of JSON `value` that T holds. nlohmann's get<T>() casts whatever it finds,
+// and casting an out-of-range float to an integer is undefined behaviour.
+template <typename T>
+bool whole_number(const json& value, T& out) {
+  using Limits = std::numeric_limits<T>;
+  if (value.is_number_unsigned()) {
+    const auto u = value.get<uint64_t>();
+    if (u > static_cast<uint64_t>(Limits::max())) return false;
+    out = static_cast<T>(u);
+    return true;
+  }
+  if (value.is_number_integer()) {
+    const auto i = value.get<int64_t>();
+    if (i < 0 && (!Limits::is_signed || i < static_cast<int64_t>(Limits::min()))) return false;
+    if (i > 0 && static_cast<uint64_t>(i) > static_cast<uint64_t>(Limits::max())) return false;
+    out = static_cast<T>(i);
+    return true;
+  }
+  if (value.is_number_float()) {
+    const double d = value.get<double>();  // 1e4 is a fine step count
+    if (!(d == std::trunc(d)) || d < static_cast<double>(Limits::min()) ||
+        d >= std::ldexp(1.0, Limits::digits))
+      return false;
+    out = static_cast<T>(d);
+    return true;
+  }
+  return false;
+}
+
+// `value` as T, or std::invalid_argument naming `where`.
+template <typename T>
+T convert(const json& value, const std::string& where) {
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    T out{};
+    if (!whole_number(value, out)) fail(where, "expected an integer in range, got " + value.dump());
+    return out;
+  } else if constexpr (std::is_same_v<T, std::vector<int64_t>>) {
+    if (!value.is_array()) fail(where, "expected an array of integers, got " + value.dump());
+    T out;
+    for (const json& item : value) out.push_back(convert<int64_t>(item, where));
+    return out;
+  } else {
+    try {
+      return value.get<T>();
+    } catch (const json::exception&) {
+      fail(where, "has the wrong type (" + value.dump() + ")");
+    }
+  }
+}
+
 template <typename T>
 T value_or(const json& object, const char* key, T fallback, const std::string& where) {
   if (!object.contains(key)) return fallback;
-  try {
-    return object.at(key).get<T>();
-  } catch (const json::exception&) {
-    fail(where + "." + key, "has the wrong type (" + object.at(key).dump() + ")");
-  }
+  return convert<T>(object.at(key), where + "." + key);
 }
 
 template <typename T>
@@ -43,7 +92,7 @@ std::array<T, 2> pair_or(const json& object, const char* key, std::array<T, 2> f
   const json& value = object.at(key);
   if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
     fail(where + "." + key, "expected an array of two numbers");
-  return {value[0].get<T>(), value[1].get<T>()};
+  return {convert<T>(value[0], where + "." + key), convert<T>(value[1], where + "." + key)};
 }
 
 void require(bool ok, const std::string& where, const std::string& what) {
@@ -56,6 +105,20 @@ int64_t TrainConfig::total_steps() const {
   int64_t total = 0;
   for (const StageConfig& stage : stages) total += stage.steps;
   return total;
+}
+
+TrainConfig TrainConfig::from_text(const std::string& text, const std::string& source) {
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::exception& e) {
+    throw std::invalid_argument("config " + source + ": not valid JSON (" + e.what() + ")");
+  }
+  try {
+    return from_json(root);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("config " + source + ": " + e.what());
+  }
 }
 
 TrainConfig TrainConfig::from_json(const json& root) {

@@ -101,6 +101,8 @@ struct TrainConfig {
   int64_t total_steps() const;
   // std::invalid_argument naming the key and what was expected.
   static TrainConfig from_json(const nlohmann::json& json);
+  // The config file's text; errors (not JSON, or from_json's) name `source`.
+  static TrainConfig from_text(const std::string& text, const std::string& source);
 };
 
 }  // namespace omnipoint::train

@@ -1,0 +1,152 @@
+#pragma once
+// The parsers of outside input that are fuzzed (docs/FUZZING.md), one per folder name of
+// tests/fuzz/{corpus,malformed,regressions}/<name>/. The libFuzzer targets (fuzz_<name>.cpp)
+// and the CTest replay (tests/io/test_parser_corpus.cpp) drive them through these entries, so
+// both feed the same bytes to the same calls.
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/data/moge_format.h"
+#include "omnipoint/data/png_text.h"
+#include "omnipoint/data/sample.h"
+#include "omnipoint/io/npy.h"
+#include "omnipoint/io/ply.h"
+#include "omnipoint/io/point_cloud.h"
+#include "omnipoint/io/safetensors.h"
+#include "omnipoint/train/train_config.h"
+
+namespace omnipoint::fuzz {
+
+using ParseFn = void (*)(const std::string& bytes, const std::string& source);
+
+struct Parser {
+  const char* name;
+  // The checked entry point: returns, or throws an error naming `source` (seeds must parse,
+  // malformed files must fail with their message).
+  ParseFn parse;
+  // More entry points driven with the same bytes; only the contract is checked. May be null.
+  ParseFn explore = nullptr;
+  // safetensors and npy promise std::runtime_error alone; the others document
+  // std::invalid_argument for bad content too.
+  bool runtime_error_only = false;
+};
+
+// The contract: `call` returns or throws one of the documented error types. Anything else
+// propagates (libFuzzer reports an uncaught exception as a crash; the replay test fails).
+template <typename Call>
+void within_contract(Call call, bool runtime_error_only = false) {
+  try {
+    call();
+  } catch (const std::runtime_error&) {
+  } catch (const std::invalid_argument&) {
+    if (runtime_error_only) throw;
+  }
+}
+
+// The CRCs of every complete chunk recomputed, so that mutated chunk contents get past the
+// CRC check and reach the text parser.
+inline std::string with_png_crcs_fixed(std::string png) {
+  std::size_t at = 8;
+  while (at + 12 <= png.size()) {
+    const auto byte = [&](std::size_t i) { return std::uint32_t(std::uint8_t(png[i])); };
+    const std::uint32_t length =
+        byte(at) << 24 | byte(at + 1) << 16 | byte(at + 2) << 8 | byte(at + 3);
+    if (length > png.size() - at - 12) break;
+    const std::uint32_t crc = data::png_crc32(png.substr(at + 4, 4 + length));
+    for (int i = 0; i < 4; ++i) png[at + 8 + length + i] = char(crc >> (24 - 8 * i));
+    at += 12 + length;
+  }
+  return png;
+}
+
+// One function per parser, so that a fuzz target links only the layers its parser needs.
+inline Parser safetensors_parser() {
+  return {"safetensors",
+          [](const std::string& b, const std::string& s) {
+            io::parse_safetensors(b.data(), b.size(), s);
+          },
+          nullptr, true};
+}
+inline Parser npy_parser() {
+  return {"npy",
+          [](const std::string& b, const std::string& s) { io::parse_npy(b.data(), b.size(), s); },
+          nullptr, true};
+}
+inline Parser ply_parser() {
+  return {"ply", [](const std::string& b, const std::string& s) { io::parse_ply(b, s); }};
+}
+inline Parser kitti_bin_parser() {
+  return {"kitti_bin",
+          [](const std::string& b, const std::string& s) { io::parse_kitti_bin(b, s); }};
+}
+inline Parser rigid_transform_parser() {
+  return {"rigid_transform",
+          [](const std::string& b, const std::string& s) { io::parse_rigid_transform(b, s); }};
+}
+// A camera file (cameras.txt or JSON); the same bytes as a --camera spec string and as a file
+// with a camera id.
+inline Parser camera_parser() {
+  return {"camera",
+          [](const std::string& b, const std::string& s) { camera::parse_camera_file(b, s); },
+          [](const std::string& b, const std::string& s) {
+            within_contract([&] { camera::parse_camera(b); });
+            within_contract([&] { camera::is_camera_line(b); });
+            within_contract([&] { camera::parse_camera_file(b, s, "1"); });
+          }};
+}
+inline Parser train_config_parser() {
+  return {"train_config",
+          [](const std::string& b, const std::string& s) { train::TrainConfig::from_text(b, s); }};
+}
+// A MoGe depth PNG's text chunks (near, far, unit), as read; then with valid CRCs.
+inline Parser png_text_parser() {
+  return {"png_text",
+          [](const std::string& b, const std::string& s) { data::parse_moge_depth_range(b, s); },
+          [](const std::string& b, const std::string& s) {
+            const std::string fixed = with_png_crcs_fixed(b);
+            within_contract([&] { data::read_png_text(fixed, s); });
+            within_contract([&] { data::parse_moge_depth_range(fixed, s); });
+          }};
+}
+// A MoGe instance's meta.json, for a 64x48 image.
+inline Parser moge_meta_parser() {
+  return {"moge_meta",
+          [](const std::string& b, const std::string& s) { data::parse_moge_meta(b, 64, 48, s); }};
+}
+inline Parser sample_meta_parser() {
+  return {"sample_meta",
+          [](const std::string& b, const std::string& s) { data::parse_sample_meta(b, s); }};
+}
+
+// All of them (the replay test).
+inline const std::vector<Parser>& parsers() {
+  static const std::vector<Parser> table = {
+      safetensors_parser(),     npy_parser(),        ply_parser(),          kitti_bin_parser(),
+      rigid_transform_parser(), camera_parser(),     train_config_parser(), png_text_parser(),
+      moge_meta_parser(),       sample_meta_parser()};
+  return table;
+}
+
+inline const Parser& parser_named(const std::string& name) {
+  for (const Parser& parser : parsers())
+    if (name == parser.name) return parser;
+  throw std::invalid_argument("no fuzzed parser named '" + name + "'");
+}
+
+// Everything the fuzzer runs for one input.
+inline void run_all(const Parser& parser, const std::string& bytes, const std::string& source) {
+  within_contract([&] { parser.parse(bytes, source); }, parser.runtime_error_only);
+  if (parser.explore) parser.explore(bytes, source);
+}
+
+// The body of LLVMFuzzerTestOneInput.
+inline int fuzz_one(const Parser& parser, const std::uint8_t* data, std::size_t size) {
+  run_all(parser, std::string(reinterpret_cast<const char*>(data), size), "fuzz");
+  return 0;
+}
+
+}  // namespace omnipoint::fuzz
