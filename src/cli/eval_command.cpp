@@ -20,10 +20,11 @@
 #include "cli/commands.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
+#include "omnipoint/infer/infer.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/npy.h"
-#include "omnipoint/io/safetensors.h"
-#include "omnipoint/model/omnipoint_weights.h"
+#include "omnipoint/model/omnipoint_config.h"
+#include "omnipoint/predict/predictor.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -40,20 +41,11 @@ struct EvalOptions {
 };
 
 eval::Predictor model_predictor(const EvalOptions& options) {
-  const io::SafetensorsFile file = io::read_safetensors(options.model);
   const std::string name =
       options.label.empty() ? fs::path(options.model).stem().string() : options.label;
-  const at::Device device(options.device);
-  const auto format = file.metadata.find("format");
-  if (format != file.metadata.end() && format->second == "omnipoint")
-    return eval::omnipoint_predictor(model::load_omnipoint_model(file.tensors, file.metadata), name,
-                                     options.num_tokens, device);
-  if (file.metadata.count("config") == 0)
-    throw std::invalid_argument("--model " + options.model +
-                                ": expected an OmniPoint or MoGe-2 checkpoint (safetensors with a "
-                                "\"config\" metadata entry), found no config");
-  return eval::moge2_predictor(model::load_moge2(file.tensors, file.metadata), name,
-                               options.num_tokens, device);
+  return eval::network_predictor(
+      predict::Model::load(options.model, at::Device(options.device)).network(), name,
+      options.num_tokens);
 }
 
 // DIR/<id>.npy, else DIR/<dataset folder name>/<id>.npy: (H, W, 3) metric points.
@@ -82,8 +74,9 @@ eval::Predictor random_model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
                             : options.label;
-  return eval::omnipoint_predictor(model::OmniPointModel(config), name, options.num_tokens,
-                                   at::Device(options.device));
+  return eval::network_predictor(
+      infer::Network(model::OmniPointModel(config), at::Device(options.device)), name,
+      options.num_tokens);
 }
 
 eval::Predictor make_predictor(const EvalOptions& options) {
