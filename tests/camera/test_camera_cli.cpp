@@ -39,7 +39,9 @@ class CameraCli : public ::testing::Test {
     EXPECT_NE(result.status, 0) << arguments;
     EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
     EXPECT_NE(result.err.find(mention), std::string::npos) << result.err;
-    if (!output.empty()) EXPECT_FALSE(fs::exists(output)) << output;
+    if (!output.empty()) {
+      EXPECT_FALSE(fs::exists(output)) << output;
+    }
     // No temporary files left behind either.
     for (const auto& entry : fs::directory_iterator(dir_)) {
       EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();

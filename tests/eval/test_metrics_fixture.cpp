@@ -94,9 +94,12 @@ TEST_P(MetricsFixture, AlignmentsMatchMoGe) {
     auto near = [](double a, double b) {
       return std::abs(a - b) <= 1e-4 * std::max(std::abs(b), 1e-3);
     };
-    if (value.contains("scale")) EXPECT_PRED2(near, got.scale, value["scale"].get<double>());
-    if (value.contains("clamp_min_disparity"))
+    if (value.contains("scale")) {
+      EXPECT_PRED2(near, got.scale, value["scale"].get<double>());
+    }
+    if (value.contains("clamp_min_disparity")) {
       EXPECT_PRED2(near, got.clamp_min_disparity, value["clamp_min_disparity"].get<double>());
+    }
     if (value.contains("shift")) {
       const auto& shift = value["shift"];
       if (shift.is_array()) {

@@ -74,8 +74,7 @@ TEST_F(SpecFiles, CamerasTxtFirstAndById) {
 }
 
 TEST_F(SpecFiles, SingleLineAndJsonFiles) {
-  EXPECT_EQ(read_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(),
-            "FOV");
+  EXPECT_EQ(read_camera(write("cam.txt", "FOV 640 480 300 300 320 240 0.9\n")).model_name(), "FOV");
   const auto json =
       write("cam.json", R"({"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []})");
   EXPECT_EQ(read_camera(json).model_name(), "EQUIRECTANGULAR");

@@ -123,8 +123,9 @@ TEST(BatchSource, BatchesAreAFunctionOfSeedStepAndRank) {
   // Without conditions nothing is passed; sparse depth is sampled from the GT distances.
   EXPECT_EQ(source.batch(3, false).condition_rays.abs().sum().item<double>(), 0.0);
   const at::Tensor sparse = a.condition_sparse_depth, has = sparse > 0;
-  if (has.any().item<bool>())
+  if (has.any().item<bool>()) {
     EXPECT_TRUE(at::equal(sparse.masked_select(has), a.targets.distance.masked_select(has)));
+  }
 }
 
 // One camera for every item, augmentations as given.

@@ -18,8 +18,8 @@ camera::Camera read_camera(const std::string& spec_or_path) {
     return camera::parse_camera_file(read_file(path), path, spec_or_path.substr(separator + 1));
   }
   throw std::runtime_error("camera spec '" + spec_or_path +
-                              "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON "
-                              "object, or an existing file");
+                           "' is not a camera line ('MODEL WIDTH HEIGHT PARAMS...'), a JSON "
+                           "object, or an existing file");
 }
 
 }  // namespace omnipoint::io

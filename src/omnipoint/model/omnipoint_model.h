@@ -32,10 +32,11 @@ namespace omnipoint::model {
 
 // The conditions of one forward pass; undefined tensors mean "absent for the whole batch".
 // Per item presence follows conditioning.h (zero rays / no valid sample = absent).
+// The conditions are optional: an undefined tensor means "not given".
 struct OmniPointInputs {
-  at::Tensor image;         // (B,3,H,W) RGB in [0,1]
-  at::Tensor rays;          // (B,3,H,W) unit rays of the camera at the pixel centres
-  at::Tensor sparse_depth;  // (B,H,W) radial distances, 0 / non-finite where no sample
+  at::Tensor image;           // (B,3,H,W) RGB in [0,1]
+  at::Tensor rays{};          // (B,3,H,W) unit rays of the camera at the pixel centres
+  at::Tensor sparse_depth{};  // (B,H,W) radial distances, 0 / non-finite where no sample
 };
 
 struct OmniPointOutput {
