@@ -11,7 +11,6 @@
 #include "cli/commands.h"
 #include "omnipoint/infer/infer.h"
 #include "omnipoint/io/npy.h"
-#include "omnipoint/predict/predictor.h"
 
 namespace omnipoint::cli {
 
@@ -48,7 +47,7 @@ at::Tensor read_image_array(const std::string& path) {
 void run_forward(const ForwardOptions& options) {
   const at::Tensor image = read_image_array(options.input_path);
   const infer::RawOutput output =
-      infer::forward(predict::Model::load(options.model_path).network(), image, options.num_tokens);
+      infer::forward(infer::load_network(options.model_path), image, options.num_tokens);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {

@@ -6,6 +6,7 @@
 
 #include <ATen/ATen.h>
 
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,25 +24,42 @@
 namespace omnipoint::infer {
 namespace {
 
-const std::string kBundled = std::string(OMNIPOINT_SOURCE_DIR) + "/models/omnipoint_default.safetensors";
-const std::string kMoGe2 = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/model.safetensors";
-
-Network load(const std::string& path) {
-  const io::SafetensorsFile file = io::read_safetensors(path);
-  return load_network(file.tensors, file.metadata);
-}
+const std::string kBundled =
+    std::string(OMNIPOINT_SOURCE_DIR) + "/models/omnipoint_default.safetensors";
+const std::string kMoGe2 =
+    std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/model.safetensors";
 
 TEST(Infer, LoadNetworkDispatchesOnTheFormat) {
-  EXPECT_EQ(load(kBundled).format(), "omnipoint");
-  EXPECT_EQ(load(kBundled).default_num_tokens(), 36);
-  EXPECT_EQ(load(kMoGe2).format(), "moge2");
+  EXPECT_EQ(load_network(kBundled).format(), "omnipoint");
+  EXPECT_EQ(load_network(kBundled).default_num_tokens(), 36);
+  EXPECT_EQ(load_network(kMoGe2).format(), "moge2");
+  // Errors name the path: unreadable -> runtime_error, not a model we know -> invalid_argument.
+  const auto message = [](const auto& load) {
+    try {
+      load();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "infer_load";
+  std::filesystem::create_directories(dir);
+  const std::string missing = (dir / "missing.safetensors").string();
+  EXPECT_THROW(load_network(missing), std::runtime_error);
+  EXPECT_NE(message([&] { load_network(missing); }).find(missing), std::string::npos);
   const io::SafetensorsFile file = io::read_safetensors(kMoGe2);
   auto metadata = file.metadata;
   metadata["format"] = "other";
-  EXPECT_THROW(load_network(file.tensors, metadata), std::invalid_argument);
+  const std::string other = (dir / "other.safetensors").string();
+  io::write_safetensors(other, file.tensors, metadata);
+  EXPECT_THROW(load_network(other), std::invalid_argument);
+  EXPECT_NE(message([&] { load_network(other); }).find(other), std::string::npos);
   metadata.erase("format");
   metadata.erase("config");
-  EXPECT_THROW(load_network(file.tensors, metadata), std::invalid_argument);
+  const std::string bare = (dir / "bare.safetensors").string();
+  io::write_safetensors(bare, file.tensors, metadata);
+  EXPECT_THROW(load_network(bare), std::invalid_argument);
+  EXPECT_NE(message([&] { load_network(bare); }).find(bare), std::string::npos);
 }
 
 // Moved from model/test_omnipoint_model.cpp (model::align_to_metric_sparse_depth): a model
@@ -73,9 +91,9 @@ TEST(Infer, MetricPostAlignmentRescalesToTheSparseDepth) {
   EXPECT_THROW(run(network, inputs), std::invalid_argument);
 }
 
-// What eval scores is what predict ships: the point map eval's scoring builds
-// (metric_scale · distance · ray, eval/runner.cpp) equals predict's points wherever predict's
-// mask holds (predict writes zeros elsewhere), in every mode eval runs the network in.
+// What eval scores is what predict ships: the point map eval scores (eval::scored_points)
+// equals predict's points at every pixel (zero where predict's mask is false), in every mode
+// eval runs the network in.
 TEST(Infer, EvalScoresWhatPredictShips) {
   const std::vector<std::string> cameras = {"PINHOLE 42 28 30 30 21 14",
                                             "OPENCV_FISHEYE 32 32 9.6 9.6 16 16 0 0 0 0",
@@ -101,8 +119,7 @@ TEST(Infer, EvalScoresWhatPredictShips) {
         }
         const eval::Conditions conditions = eval::make_conditions(sample, mode, 20, 7);
         const eval::GeometryPrediction scored = predictor.predict(item, conditions);
-        const at::Tensor eval_points =
-            (scored.metric_scale * scored.distance).unsqueeze(-1) * scored.rays;
+        const at::Tensor eval_points = eval::scored_points(scored);
 
         predict::PredictOptions options;
         options.num_tokens = tokens;
@@ -115,14 +132,8 @@ TEST(Infer, EvalScoresWhatPredictShips) {
         const predict::Prediction shipped = model.predict(sample.image, options);
         ASSERT_TRUE(shipped.mask.any().item<bool>()) << what;
         const at::Tensor mask = shipped.mask.unsqueeze(-1);
-        const double difference =
-            at::where(mask, eval_points - shipped.points, at::zeros_like(eval_points))
-                .abs()
-                .max()
-                .item<double>();
-        EXPECT_LE(difference, 1e-6) << what;
-        EXPECT_NEAR(scored.metric_scale, shipped.metric_scale, 1e-6 * shipped.metric_scale)
-            << what;
+        EXPECT_LE((eval_points - shipped.points).abs().max().item<double>(), 1e-6) << what;
+        EXPECT_NEAR(scored.metric_scale, shipped.metric_scale, 1e-6 * shipped.metric_scale) << what;
         EXPECT_EQ(shipped.points.masked_select(~mask).abs().sum().item<double>(), 0.0) << what;
       }
     }

@@ -34,11 +34,15 @@ Predictor network_predictor(infer::Network network, const std::string& name, int
     // Distances of a relative (non-metric) sample carry no metric scale to align to.
     inputs.align_to_sparse_depth = item.sample.metric;
     const infer::Result result = infer::run(network, inputs);
+    const infer::PointMap shipped = infer::point_map(result);
     GeometryPrediction prediction;
-    prediction.rays = result.rays[0].to(at::kCPU, at::kFloat);
-    prediction.distance = result.distance[0].to(at::kCPU, at::kFloat);
+    prediction.rays = shipped.rays[0].to(at::kCPU, at::kFloat);
+    prediction.distance =
+        at::where(shipped.mask, result.distance, at::zeros_like(result.distance))[0].to(at::kCPU,
+                                                                                        at::kFloat);
     prediction.metric_scale = result.metric_scale[0].item<double>();
     prediction.is_metric = result.metric;
+    prediction.points = shipped.points[0].to(at::kCPU, at::kFloat);
     return prediction;
   };
   return predictor;

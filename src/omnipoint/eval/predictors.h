@@ -6,6 +6,7 @@
 //               MoGe-2), +D the sampled GT distances, which also align the metric scale on
 //               metric samples (geometry::fit_scale_to_sparse_depth, the paper's post-alignment).
 //               MoGe-2's points give rays and distances; not metric without a scale head.
+//               Scored: the point map predict ships (infer::point_map, zero outside its mask).
 //   point maps: an (H, W, 3) metric point map per sample (external predictions); rays and
 //               distances are its directions and norms (zero / non-finite points: no ray).
 //   oracle:     the ground truth's own rays and distances (scores Rel 0, δ1 1 everywhere).

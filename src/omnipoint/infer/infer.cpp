@@ -14,6 +14,7 @@
 #include "omnipoint/geometry/alignment.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/infer/teacher.h"
+#include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_weights.h"
 
@@ -57,8 +58,7 @@ Geometry run_moge2(const Network& network, const at::Tensor& images, int64_t num
   options.apply_mask = false;
   const model::MoGe2Inference out = model::postprocess(output, options);
   return {out.rays, out.distance, out.mask,
-          scale.defined() ? scale : at::ones({images.size(0)}, images.options()),
-          scale.defined()};
+          scale.defined() ? scale : at::ones({images.size(0)}, images.options()), scale.defined()};
 }
 
 // MoGe-2 on a wide camera: pinhole views tiling its field of view, each predicted (as a
@@ -100,19 +100,27 @@ Network::Network(model::MoGe2Model model, at::Device device)
   moge2_->to(device);
 }
 
-Network load_network(const std::map<std::string, at::Tensor>& tensors,
-                     const std::map<std::string, std::string>& metadata, at::Device device) {
-  const auto format = metadata.find("format");
-  const std::string kind = format == metadata.end() ? "moge2" : format->second;
-  if (kind == "omnipoint") return Network(model::load_omnipoint_model(tensors, metadata), device);
-  if (kind != "moge2")
-    throw std::invalid_argument("unknown metadata format \"" + kind +
-                                "\" (expected \"omnipoint\" or \"moge2\")");
-  if (metadata.count("config") == 0)
-    throw std::invalid_argument(
-        "expected an OmniPoint or MoGe-2 checkpoint (safetensors with a \"config\" metadata "
-        "entry), found no config");
-  return Network(model::load_moge2(tensors, metadata), device);
+Network load_network(const std::string& path, at::Device device) {
+  // io reports an unreadable file with its path; what the content lacks gets the path here.
+  const io::SafetensorsFile file = io::read_safetensors(path);
+  const auto format = file.metadata.find("format");
+  const std::string kind = format == file.metadata.end() ? "moge2" : format->second;
+  try {
+    if (kind == "omnipoint")
+      return Network(model::load_omnipoint_model(file.tensors, file.metadata), device);
+    if (kind != "moge2")
+      throw std::invalid_argument("unknown metadata format \"" + kind +
+                                  "\" (expected \"omnipoint\" or \"moge2\")");
+    if (file.metadata.count("config") == 0)
+      throw std::invalid_argument(
+          "expected an OmniPoint or MoGe-2 checkpoint (safetensors with a \"config\" metadata "
+          "entry), found no config");
+    return Network(model::load_moge2(file.tensors, file.metadata), device);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("model " + path + ": " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("model " + path + ": " + e.what());
+  }
 }
 
 Result run(const Network& network, const Inputs& inputs) {
@@ -128,8 +136,8 @@ Result run(const Network& network, const Inputs& inputs) {
   Result result;
 
   at::Tensor camera_rays, camera_valid;
-  const bool wide = inputs.camera && camera::camera_class(*inputs.camera) !=
-                                         camera::CameraClass::kPerspective;
+  const bool wide =
+      inputs.camera && camera::camera_class(*inputs.camera) != camera::CameraClass::kPerspective;
   if (inputs.camera) {
     if (inputs.camera->width() != width || inputs.camera->height() != height)
       throw std::invalid_argument("infer: the camera is " + std::to_string(inputs.camera->width()) +
@@ -185,9 +193,9 @@ Result run(const Network& network, const Inputs& inputs) {
     const at::Tensor usable = (sparse > 0) & result.mask;
     result.sparse_samples = usable.flatten(1).sum(1);
     if (inputs.align_to_sparse_depth) {
-      result.alignment_factor = geometry::fit_scale_to_sparse_depth(
-          (scale.view({batch, 1, 1}) * net.distance).flatten(1), sparse.flatten(1),
-          usable.flatten(1));
+      result.alignment_factor =
+          geometry::fit_scale_to_sparse_depth((scale.view({batch, 1, 1}) * net.distance).flatten(1),
+                                              sparse.flatten(1), usable.flatten(1));
       scale = scale * result.alignment_factor;
       result.aligned = true;
       result.metric = result.metric || (result.sparse_samples > 0).all().item<bool>();
@@ -197,6 +205,21 @@ Result run(const Network& network, const Inputs& inputs) {
   result.metric_scale = scale;
   result.points = (scale.view({batch, 1, 1}) * result.distance).unsqueeze(-1) * result.rays;
   return result;
+}
+
+PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask) {
+  PointMap map;
+  map.mask =
+      mask.to(at::kBool) & at::isfinite(distance) & (distance > 0) & (rays.norm(2, -1) > 0.5);
+  map.rays = at::where(at::isfinite(rays), rays, at::zeros_like(rays));
+  map.distance = at::where(map.mask, distance, at::zeros_like(distance));
+  map.points = geometry::points_from_rays(map.rays, map.distance);
+  return map;
+}
+
+PointMap point_map(const Result& result) {
+  const at::Tensor scale = result.metric_scale.view({result.metric_scale.size(0), 1, 1});
+  return point_map(result.rays, scale * result.distance, result.mask);
 }
 
 RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens) {

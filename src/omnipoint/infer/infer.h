@@ -4,7 +4,7 @@
 // eval predictors, the A2P teachers and `omnipoint forward` all call it, so what eval scores
 // is what predict ships.
 //
-//   const infer::Network network = infer::load_network(file.tensors, file.metadata, at::kCPU);
+//   const infer::Network network = infer::load_network("model.safetensors", at::kCPU);
 //   infer::Inputs inputs;
 //   inputs.images = images;  // (B, 3, H, W) RGB in [0, 1]
 //   inputs.camera = camera;  // optional, at the images' size
@@ -25,7 +25,6 @@
 #include <c10/core/Device.h>
 
 #include <cstdint>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -61,12 +60,11 @@ class Network {
   model::MoGe2Model moge2_{nullptr};
 };
 
-// The one dispatch on a checkpoint's metadata "format": "omnipoint", or "moge2" (also when
-// absent: converted MoGe-2 checkpoints carry only their config). std::invalid_argument for an
-// unknown format or a file without a config; load errors propagate as they are.
-Network load_network(const std::map<std::string, at::Tensor>& tensors,
-                     const std::map<std::string, std::string>& metadata,
-                     at::Device device = at::kCPU);
+// The one checkpoint loader: reads a .safetensors file and dispatches once on its metadata
+// "format": "omnipoint", or "moge2" (also when absent: converted MoGe-2 checkpoints carry only
+// their config). Errors name the path: std::runtime_error for an unreadable file,
+// std::invalid_argument for one that is not a model we know.
+Network load_network(const std::string& path, at::Device device = at::kCPU);
 
 enum class Precision { kFloat32 };  // others (bf16, fp16) are not implemented yet
 
@@ -104,6 +102,19 @@ struct Result {
 };
 
 Result run(const Network& network, const Inputs& inputs);
+
+// The geometry a prediction ships (predict::Prediction, and so what eval scores), any leading
+// dimensions: a pixel is valid where the mask holds, the distance is finite and positive and
+// the ray is a unit ray; distance and points are zero elsewhere, non-finite rays zero.
+struct PointMap {
+  at::Tensor rays;      // (..., 3)
+  at::Tensor distance;  // (...) metric radial distance
+  at::Tensor points;    // (..., 3) distance · rays
+  at::Tensor mask;      // (...) bool
+};
+PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask);
+// A run's: metric_scale · distance along its rays, under its mask.
+PointMap point_map(const Result& result);
 
 // The raw outputs of one forward pass without conditions (`omnipoint forward`): points
 // (B, H, W, 3) (OmniPoint: metric; MoGe-2: its affine point map), mask (B, H, W) probability,

@@ -14,7 +14,6 @@
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/infer.h"
-#include "omnipoint/io/safetensors.h"
 
 namespace omnipoint::predict {
 
@@ -72,18 +71,22 @@ std::optional<camera::Camera> fit(const std::string& requested,
   }
 }
 
+// One image's Prediction from its shipped geometry (infer::point_map: the masking rule).
+Prediction prediction(const infer::PointMap& map, double metric_scale) {
+  Prediction p;
+  p.rays = map.rays;
+  p.distance = map.distance;
+  p.points = map.points;
+  p.mask = map.mask;
+  p.depth = geometry::planar_depth(p.points);
+  p.metric_scale = metric_scale;
+  return p;
+}
+
 }  // namespace
 
 Model Model::load(const std::string& path, at::Device device) {
-  const io::SafetensorsFile file = io::read_safetensors(path);
-  try {
-    return Model(
-        std::make_shared<Impl>(Impl{infer::load_network(file.tensors, file.metadata, device)}));
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("model " + path + ": " + e.what());
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error("model " + path + ": " + e.what());
-  }
+  return Model(std::make_shared<Impl>(Impl{infer::load_network(path, device)}));
 }
 
 const std::string& Model::format() const {
@@ -186,16 +189,17 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
   notes.insert(notes.end(), result.notes.begin(), result.notes.end());
 
   // Camera fit and packaging: to the CPU once, then per image.
-  const at::Tensor rays = result.rays.to(at::kCPU, at::kFloat),
-                   distance = (result.metric_scale.view({batch, 1, 1}) * result.distance)
-                                  .to(at::kCPU, at::kFloat),
-                   mask = result.mask.to(at::kCPU),
+  const infer::PointMap shipped = infer::point_map(result);
+  const at::Tensor rays = shipped.rays.to(at::kCPU, at::kFloat),
+                   distance = shipped.distance.to(at::kCPU, at::kFloat),
+                   points = shipped.points.to(at::kCPU, at::kFloat),
+                   mask = shipped.mask.to(at::kCPU),
                    scale = result.metric_scale.to(at::kCPU, at::kDouble),
                    factor = result.alignment_factor.to(at::kCPU, at::kDouble),
                    samples = result.sparse_samples.to(at::kCPU);
   std::vector<Prediction> predictions;
   for (int64_t b = 0; b < batch; ++b) {
-    Prediction p = prediction_from_geometry(rays[b], distance[b], mask[b], scale[b].item<double>());
+    Prediction p = prediction({rays[b], distance[b], points[b], mask[b]}, scale[b].item<double>());
     p.alignment_factor = factor[b].item<double>();
     p.sparse_samples = samples[b].item<int64_t>();
     p.notes = notes;
@@ -260,14 +264,7 @@ Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& di
     throw std::invalid_argument(
         "prediction: expected rays (H, W, 3), distance (H, W) and mask (H, W), got " +
         c10::str(rays.sizes()) + ", " + c10::str(distance.sizes()) + ", " + c10::str(mask.sizes()));
-  Prediction p;
-  p.mask = mask.to(at::kBool) & at::isfinite(distance) & (distance > 0) & (rays.norm(2, -1) > 0.5);
-  p.rays = at::where(at::isfinite(rays), rays, at::zeros_like(rays));
-  p.distance = at::where(p.mask, distance, at::zeros_like(distance));
-  p.points = geometry::points_from_rays(p.rays, p.distance);
-  p.depth = geometry::planar_depth(p.points);
-  p.metric_scale = metric_scale;
-  return p;
+  return prediction(infer::point_map(rays, distance, mask), metric_scale);
 }
 
 }  // namespace omnipoint::predict

@@ -18,7 +18,6 @@
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/teacher.h"
-#include "omnipoint/io/safetensors.h"
 
 namespace omnipoint::train {
 namespace {
@@ -98,8 +97,7 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     const int64_t tokens =
         config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
     try {
-      const io::SafetensorsFile file = io::read_safetensors(config_.a2p_teacher);
-      teacher_ = infer::teacher(infer::load_network(file.tensors, file.metadata), tokens);
+      teacher_ = infer::teacher(infer::load_network(config_.a2p_teacher), tokens);
     } catch (const std::exception& error) {
       throw std::runtime_error("A2P teacher \"" + config_.a2p_teacher + "\": " + error.what());
     }
