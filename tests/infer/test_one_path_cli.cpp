@@ -55,9 +55,9 @@ const std::vector<fs::path>& datasets() {
     std::vector<fs::path> made;
     for (const auto& [name, spec] : cameras) {
       const fs::path root = work_dir() / "data" / name;
-      const CliRun run = run_cli("synth --camera " + quoted(spec) +
-                                 " --scene indoor --seed 3 --count 1 --no-shadows --no-ao --out " +
-                                 root.string());
+      const CliRun run =
+          run_cli("synth --camera " + quoted(spec) +
+                  " --scene indoor --seed 3 --count 1 --no-shadows --no-ao --out " + root.string());
       EXPECT_EQ(run.status, 0) << run.err;
       made.push_back(root);
     }
@@ -137,8 +137,8 @@ void expect_eval_is_predict(const std::string& label, const std::string& model,
     const fs::path sample = root / id;
     const fs::path saved = eval_out / "points" / root.filename() / id / mode;
     const fs::path predict_out = work_dir() / label / "predict" / root.filename() / mode;
-    std::string args = "predict " + (sample / "image.png").string() + " --model " + model +
-                       tokens + " --fit-model none --out " + quoted(predict_out.string());
+    std::string args = "predict " + (sample / "image.png").string() + " --model " + model + tokens +
+                       " --fit-model none --out " + quoted(predict_out.string());
     if (mode.find("+K") != std::string::npos) {
       const nlohmann::json meta =
           parse_json(omnipoint::test::slurp(sample / "meta.json"), "meta.json");
@@ -159,12 +159,12 @@ void expect_eval_is_predict(const std::string& label, const std::string& model,
     // Eval's scores are `omnipoint metrics` on predict's files.
     const GroundTruthFiles gt = write_ground_truth(sample, split, saved);
     const bool metric = record.at("entries").contains("points_metric");
-    const CliRun metrics = run_cli(
-        "metrics --gt-depth " + quoted(gt.depth) + " --pred-depth " +
-        quoted((shipped / (split == "S.FoV" ? "depth.npy" : "distance.npy")).string()) +
-        " --gt-points " + quoted(gt.points) + " --pred-points " +
-        quoted((shipped / "points.npy").string()) + " --mask " + quoted(gt.mask) +
-        (metric ? " --metric" : ""));
+    const CliRun metrics =
+        run_cli("metrics --gt-depth " + quoted(gt.depth) + " --pred-depth " +
+                quoted((shipped / (split == "S.FoV" ? "depth.npy" : "distance.npy")).string()) +
+                " --gt-points " + quoted(gt.points) + " --pred-points " +
+                quoted((shipped / "points.npy").string()) + " --mask " + quoted(gt.mask) +
+                (metric ? " --metric" : ""));
     ASSERT_EQ(metrics.status, 0) << what << "\n" << metrics.err;
     expect_same_scores(record.at("entries"), parse_json(metrics.out, "metrics"), what);
   }
@@ -175,9 +175,9 @@ void expect_eval_is_predict(const std::string& label, const std::string& model,
 
 TEST(OnePathCli, EvalScoresWhatPredictShipsBundledModel) {
   // At the model's own default token budget on both sides (no --num-tokens).
-  expect_eval_is_predict("bundled",
-                         std::string(OMNIPOINT_SOURCE_DIR) + "/models/omnipoint_default.safetensors",
-                         "", {"none", "+K", "+D", "+K+D"});
+  expect_eval_is_predict(
+      "bundled", std::string(OMNIPOINT_SOURCE_DIR) + "/models/omnipoint_default.safetensors", "",
+      {"none", "+K", "+D", "+K+D"});
 }
 
 TEST(OnePathCli, EvalScoresWhatPredictShipsMoGe2) {
