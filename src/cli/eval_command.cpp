@@ -4,6 +4,7 @@
 //   samples.jsonl   one JSON object per sample × mode (or per skipped sample)
 //   summary.json    averages per split and mode, NaN entries excluded and counted
 //   table.md        the paper-style table
+//   points/         with --save-points: each sample × mode's scored point map (and sparse input)
 // and a progress line with the ETA on stderr.
 #include <ATen/ATen.h>
 #include <CLI/CLI.hpp>
@@ -20,10 +21,10 @@
 #include "cli/commands.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
+#include "omnipoint/infer/infer.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/npy.h"
-#include "omnipoint/io/safetensors.h"
-#include "omnipoint/model/omnipoint_weights.h"
+#include "omnipoint/model/omnipoint_config.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -32,7 +33,7 @@ namespace fs = std::filesystem;
 struct EvalOptions {
   std::string model, random_model, predictions, baseline, out, label, device = "cpu";
   std::vector<std::string> data;
-  bool intrinsics = false, moge_relative = false;
+  bool intrinsics = false, moge_relative = false, save_points = false;
   std::vector<std::string> sparse_depth;  // no value: the default count
   int64_t num_tokens = 0;
   uint64_t seed = 0;
@@ -40,20 +41,10 @@ struct EvalOptions {
 };
 
 eval::Predictor model_predictor(const EvalOptions& options) {
-  const io::SafetensorsFile file = io::read_safetensors(options.model);
   const std::string name =
       options.label.empty() ? fs::path(options.model).stem().string() : options.label;
-  const at::Device device(options.device);
-  const auto format = file.metadata.find("format");
-  if (format != file.metadata.end() && format->second == "omnipoint")
-    return eval::omnipoint_predictor(model::load_omnipoint_model(file.tensors, file.metadata), name,
-                                     options.num_tokens, device);
-  if (file.metadata.count("config") == 0)
-    throw std::invalid_argument("--model " + options.model +
-                                ": expected an OmniPoint or MoGe-2 checkpoint (safetensors with a "
-                                "\"config\" metadata entry), found no config");
-  return eval::moge2_predictor(model::load_moge2(file.tensors, file.metadata), name,
-                               options.num_tokens, device);
+  return eval::network_predictor(infer::load_network(options.model, at::Device(options.device)),
+                                 name, options.num_tokens);
 }
 
 // DIR/<id>.npy, else DIR/<dataset folder name>/<id>.npy: (H, W, 3) metric points.
@@ -82,8 +73,9 @@ eval::Predictor random_model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
                             : options.label;
-  return eval::omnipoint_predictor(model::OmniPointModel(config), name, options.num_tokens,
-                                   at::Device(options.device));
+  return eval::network_predictor(
+      infer::Network(model::OmniPointModel(config), at::Device(options.device)), name,
+      options.num_tokens);
 }
 
 eval::Predictor make_predictor(const EvalOptions& options) {
@@ -120,6 +112,19 @@ int64_t sparse_depth_points(const std::vector<std::string>& values) {
   if (used != values.front().size() || count < 1)
     throw std::invalid_argument("--sparse-depth " + values.front() + ": expected a count >= 1");
   return count;
+}
+
+// OUT/points/<dataset folder>/<id>/<mode>/: the point map scored and the sparse distances given.
+void save_points(const fs::path& out, const eval::EvalSample& item, const eval::Mode& mode,
+                 const eval::Conditions& conditions, const eval::GeometryPrediction& prediction) {
+  fs::path dataset = fs::path(item.dataset).lexically_normal();
+  if (dataset.filename().empty()) dataset = dataset.parent_path();
+  const fs::path folder = out / "points" / dataset.filename() / item.id / mode.name();
+  fs::create_directories(folder);
+  io::write_npy((folder / "points.npy").string(), eval::scored_points(prediction));
+  if (conditions.sparse_depth.defined())
+    io::write_npy((folder / "sparse_distance.npy").string(),
+                  conditions.sparse_depth.to(at::kFloat).contiguous());
 }
 
 void print_progress(int64_t done, int64_t total, double seconds) {
@@ -168,6 +173,9 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--constant-distance", options->constant_distance,
                   "metres, for --baseline constant")
       ->capture_default_str();
+  cmd->add_flag("--save-points", options->save_points,
+                "also write OUT/points/<dataset>/<id>/<mode>/points.npy, the point map scored, "
+                "and sparse_distance.npy, the sparse radial distances given (+D)");
   cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
   cmd->add_option("--device", options->device, "cpu | cuda")->capture_default_str();
   auto* sparse = cmd->get_option("--sparse-depth");
@@ -184,6 +192,13 @@ void add_eval_command(CLI::App& app) {
     run.seed = options->seed;
     run.moge_metric = !options->moge_relative;
     run.progress = print_progress;
+    if (options->save_points)
+      run.scored = [out = fs::path(options->out)](const eval::EvalSample& item,
+                                                  const eval::Mode& mode,
+                                                  const eval::Conditions& conditions,
+                                                  const eval::GeometryPrediction& prediction) {
+        save_points(out, item, mode, conditions, prediction);
+      };
     const eval::Predictor predictor = make_predictor(*options);
     const eval::RunResult result = eval::run_benchmark(predictor, options->data, run);
 

@@ -1,7 +1,6 @@
 // omnipoint forward: runs a network on an already-loaded image array and writes its raw
 // outputs as .npy files named after them (DESIGN.md).
 #include <ATen/ATen.h>
-#include <c10/core/InferenceMode.h>
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
@@ -10,13 +9,8 @@
 #include <string>
 
 #include "cli/commands.h"
-#include "omnipoint/geometry/points.h"
+#include "omnipoint/infer/infer.h"
 #include "omnipoint/io/npy.h"
-#include "omnipoint/io/safetensors.h"
-#include "omnipoint/model/moge2.h"
-#include "omnipoint/model/omnipoint_config.h"
-#include "omnipoint/model/omnipoint_model.h"
-#include "omnipoint/model/omnipoint_weights.h"
 
 namespace omnipoint::cli {
 
@@ -50,40 +44,10 @@ at::Tensor read_image_array(const std::string& path) {
   return image;
 }
 
-// Outputs shared by both model kinds; undefined tensors are not written.
-struct ForwardOutputs {
-  at::Tensor points, mask, metric_scale, rays, distance, normal;
-};
-
-// Runs the checkpoint's network, dispatching on its metadata format: "moge2" (an affine point
-// map, factored into rays and distances) or "omnipoint" (rays and distances, no conditions).
-ForwardOutputs run_model(const std::string& path, const at::Tensor& image, int64_t num_tokens) {
-  const io::SafetensorsFile file = io::read_safetensors(path);
-  const auto format = file.metadata.find("format");
-  const std::string kind = format == file.metadata.end() ? "" : format->second;
-  try {
-    c10::InferenceMode inference;
-    if (kind == "omnipoint") {
-      model::OmniPointModel network = model::load_omnipoint_model(file.tensors, file.metadata);
-      const int64_t tokens = num_tokens > 0 ? num_tokens : network->config().num_tokens_range[1];
-      const model::OmniPointOutput out = network->forward({image, {}, {}}, tokens);
-      return {out.points, out.mask, out.metric_scale, out.rays, out.distance, {}};
-    }
-    model::MoGe2Model network = model::load_moge2(file.tensors, file.metadata);
-    const int64_t tokens = num_tokens > 0 ? num_tokens : network->config().default_num_tokens();
-    const model::MoGe2Output out = network->forward(image, tokens);
-    const geometry::RaysAndDistance rays = geometry::rays_from_points(out.points);
-    return {out.points, out.mask, out.metric_scale, rays.rays, rays.distance, out.normal};
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("model " + path + ": " + e.what());
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error("model " + path + ": " + e.what());
-  }
-}
-
 void run_forward(const ForwardOptions& options) {
   const at::Tensor image = read_image_array(options.input_path);
-  const ForwardOutputs output = run_model(options.model_path, image, options.num_tokens);
+  const infer::RawOutput output =
+      infer::forward(infer::load_network(options.model_path), image, options.num_tokens);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {

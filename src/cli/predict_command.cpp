@@ -35,6 +35,7 @@ struct PredictCommandOptions {
   std::string camera;
   std::string sparse_depth;
   std::string lidar_to_camera;
+  bool sparse_depth_radial = false;
   std::string model_path;
   std::string out_dir = "predictions";
   int64_t num_tokens = 0;
@@ -135,8 +136,15 @@ void run_predict(const PredictCommandOptions& options) {
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
               .count();
       predict::PredictOptions item = base;
-      if (const auto sparse = sparse_depth_for(options.sparse_depth, path))
+      if (const auto sparse = sparse_depth_for(options.sparse_depth, path)) {
         item.sparse_depth = predict::read_sparse_depth(*sparse, options.lidar_to_camera);
+        if (options.sparse_depth_radial) {
+          if (!item.sparse_depth.depth_map.defined())
+            throw std::invalid_argument("sparse depth " + *sparse +
+                                        ": --sparse-depth-radial applies to depth maps only");
+          item.sparse_depth.depth_is_planar = false;
+        }
+      }
       const Prediction prediction = model.predict(image, item);
       const double writing_ms =
           predict::write_prediction_outputs(folder.string(), image, prediction);
@@ -164,12 +172,14 @@ void run_predict(const PredictCommandOptions& options) {
 
 void add_predict_command(CLI::App& app) {
   auto options = std::make_shared<PredictCommandOptions>();
-  CLI::App* command = app.add_subcommand("predict",
-                                         "Predict a metric 3D point cloud from each image "
-                                         "(PNG/JPEG, 8/16-bit, grey/RGB/RGBA; files or folders); "
-                                         "writes points.ply, points.glb, distance/depth/rays .npy, "
-                                         "mask/depth/depth_vis/preview .png and camera.json "
-                                         "into OUT/<image name>/");
+  CLI::App* command =
+      app.add_subcommand("predict",
+                         "Predict a metric 3D point cloud from each image "
+                         "(PNG/JPEG, 8/16-bit, grey/RGB/RGBA; files or folders); "
+                         "writes points.ply, points.glb, points/distance/depth/rays "
+                         ".npy, "
+                         "mask/depth/depth_vis/preview .png and camera.json "
+                         "into OUT/<image name>/");
   command->add_option("images", options->inputs, "Image files or folders of images")->required();
   command->add_option(
       "--camera", options->camera,
@@ -179,6 +189,9 @@ void add_predict_command(CLI::App& app) {
       "--sparse-depth", options->sparse_depth,
       "Metric sparse depth: depth image (16-bit PNG in mm, .npy or .exr in metres, 0 = missing) or "
       "point cloud (.ply, KITTI .bin); a folder holds one file per image stem");
+  command->add_flag("--sparse-depth-radial", options->sparse_depth_radial,
+                    "The sparse depth map holds radial distance along each pixel's ray, not planar "
+                    "depth z (panoramas, range images)");
   command->add_option(
       "--lidar-to-camera", options->lidar_to_camera,
       "Camera-from-LiDAR transform of a point cloud: 4x4 (or 3x4) numbers in a text file, or .npy");

@@ -111,7 +111,7 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
   const fs::path out = work_dir() / "eval_model";
   const CliRun run =
       run_cli("eval --model " + (work_dir() / "tiny.safetensors").string() + " --data " + data() +
-              " --intrinsics --sparse-depth 30 --out " + out.string());
+              " --intrinsics --sparse-depth 30 --num-tokens 16 --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("ETA"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("6/6 samples"), std::string::npos) << run.err;
@@ -134,8 +134,9 @@ TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
 TEST_F(EvalCli, RandomModelFromAConfigIsSeeded) {
   std::ofstream(work_dir() / "tiny_config.json") << omnipoint::test::tiny_omnipoint_config_json();
   const auto table = [&](const std::string& name) {
-    const CliRun run = run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() +
-                               " --data " + data() + " --out " + (work_dir() / name).string());
+    const CliRun run =
+        run_cli("eval --random-model " + (work_dir() / "tiny_config.json").string() + " --data " +
+                data() + " --num-tokens 16 --out " + (work_dir() / name).string());
     EXPECT_EQ(run.status, 0) << run.err;
     return slurp(work_dir() / name / "table.md");
   };
@@ -153,7 +154,7 @@ TEST_F(EvalCli, MoGe2CheckpointRunsThroughItsRaysAndDistances) {
   const fs::path out = work_dir() / "eval_moge2";
   const CliRun run = run_cli("eval --model " + std::string(OMNIPOINT_FIXTURE_DIR) +
                              "/moge2_forward_a/model.safetensors --label MoGe-2 --data " + data() +
-                             " --intrinsics --out " + out.string());
+                             " --intrinsics --num-tokens 16 --out " + out.string());
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("mode +K not run: MoGe-2 takes no such input"), std::string::npos)
       << run.err;

@@ -180,7 +180,8 @@ TEST(RunnerScoring, OmniPointModelUsesAKnownCameraAsItIs) {
   const auto config = model::OmniPointConfig::from_json_text(
       io::read_file(std::string(OMNIPOINT_SOURCE_DIR) + "/examples/models/tiny_omnipoint.json"));
   at::manual_seed(0);
-  Predictor predictor = omnipoint_predictor(model::OmniPointModel(config), "tiny", 12);
+  Predictor predictor =
+      network_predictor(infer::Network(model::OmniPointModel(config)), "tiny", 12);
   const camera::Camera fisheye = camera::parse_camera("OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0");
   const camera::Rays truth = fisheye.ray_map(at::kFloat);
   const EvalSample item{

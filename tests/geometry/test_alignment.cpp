@@ -117,6 +117,27 @@ TEST(ScaleFit, TruncatedIgnoresOutliersThatMoveTheMedian) {
   EXPECT_DOUBLE_EQ(fit_scale_l1_truncated(x, y, w, 1.0).scale.item<double>(), 2.0);
 }
 
+// Moved from model/test_conditioning.cpp (model::sparse_depth_alignment_scale was this fit).
+TEST(SparseDepthScale, IsTheWeightedMedianOfRatios) {
+  // Exact data: a constant ratio 2.5 is recovered whatever the outliers' count below half
+  // of the weight.
+  at::Tensor predicted = at::rand({2, 6, 7}, at::kDouble) + 0.5;
+  at::Tensor sparse = at::zeros_like(predicted);
+  for (int i = 0; i < 7; ++i) sparse[0][i % 6][i] = 2.5 * predicted[0][i % 6][i];
+  sparse[0][5][0] = 40.0 * predicted[0][5][0];  // one gross outlier
+  const at::Tensor scale = fit_scale_to_sparse_depth(predicted.flatten(1), sparse.flatten(1));
+  EXPECT_NEAR(scale[0].item<double>(), 2.5, 1e-12);
+  EXPECT_EQ(scale[1].item<double>(), 1.0);  // no samples: unchanged
+
+  // Against the definition: the minimiser of Σ |a x − y| / y over a fine search.
+  at::Tensor noisy = at::zeros({1, 1, 5}, at::kDouble);
+  at::Tensor x = at::tensor({1.0, 2.0, 0.5, 3.0, 1.5}, at::kDouble).view({1, 1, 5});
+  noisy[0][0] = at::tensor({1.3, 1.9, 0.9, 4.4, 1.2}, at::kDouble);
+  const double a = fit_scale_to_sparse_depth(x.flatten(1), noisy.flatten(1)).item<double>();
+  const auto cost = [&](double s) { return ((s * x - noisy).abs() / noisy).sum().item<double>(); };
+  for (double s = 0.5; s < 2.0; s += 1e-3) EXPECT_LE(cost(a), cost(s) + 1e-12);
+}
+
 TEST(AffineFit, RecoversExactLine) {
   const at::Tensor x = at::tensor({0.5, 1.0, 2.0, 3.5, 7.0}), y = 2 * x + 3;
   const AffineFit fit = fit_affine_l1(x, y, at::ones({5}, at::kDouble));

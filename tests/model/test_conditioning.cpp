@@ -105,25 +105,5 @@ TEST(Conditioning, SamplesSharingAGridPixelAreAveraged) {
   EXPECT_EQ(features[0][1].sum().item<float>(), 2.0f);
 }
 
-TEST(Conditioning, AlignmentScaleIsTheWeightedMedianOfRatios) {
-  // Exact data: a constant ratio 2.5 is recovered whatever the outliers' count below half
-  // of the weight.
-  at::Tensor predicted = at::rand({2, 6, 7}, at::kDouble) + 0.5;
-  at::Tensor sparse = at::zeros_like(predicted);
-  for (int i = 0; i < 7; ++i) sparse[0][i % 6][i] = 2.5 * predicted[0][i % 6][i];
-  sparse[0][5][0] = 40.0 * predicted[0][5][0];  // one gross outlier
-  const at::Tensor scale = sparse_depth_alignment_scale(predicted, sparse);
-  EXPECT_NEAR(scale[0].item<double>(), 2.5, 1e-12);
-  EXPECT_EQ(scale[1].item<double>(), 1.0);  // no samples: unchanged
-
-  // Against the definition: the minimiser of Σ |a x − y| / y over a fine search.
-  at::Tensor noisy = at::zeros({1, 1, 5}, at::kDouble);
-  at::Tensor x = at::tensor({1.0, 2.0, 0.5, 3.0, 1.5}, at::kDouble).view({1, 1, 5});
-  noisy[0][0] = at::tensor({1.3, 1.9, 0.9, 4.4, 1.2}, at::kDouble);
-  const double a = sparse_depth_alignment_scale(x, noisy).item<double>();
-  const auto cost = [&](double s) { return ((s * x - noisy).abs() / noisy).sum().item<double>(); };
-  for (double s = 0.5; s < 2.0; s += 1e-3) EXPECT_LE(cost(a), cost(s) + 1e-12);
-}
-
 }  // namespace
 }  // namespace omnipoint::model

@@ -332,29 +332,10 @@ TEST(OmniPointModel, ConfigRoundTripsAndRejectsBadInput) {
   EXPECT_THROW(plain->forward({c.image, {}, c.sparse}, kNumTokens), std::invalid_argument);
 }
 
-TEST(OmniPointModel, MetricPostAlignmentRescalesToTheSparseDepth) {
-  OmniPointModel model = tiny_model();
-  const Case c;
-  const OmniPointOutput out = model->forward({c.image}, kNumTokens);
-  // Item 0: samples at 3× the predicted metric distance; item 1: none.
-  const at::Tensor metric_distance = out.metric_scale.view({2, 1, 1}) * out.distance;
-  at::Tensor sparse =
-      at::where(c.sparse > 0, 3.0 * metric_distance, at::zeros_like(metric_distance));
-  sparse[1].zero_();
-  const OmniPointOutput aligned = align_to_metric_sparse_depth(out, sparse);
-  EXPECT_NEAR(aligned.metric_scale[0].item<double>(), 3.0 * out.metric_scale[0].item<double>(),
-              1e-5);
-  EXPECT_EQ(aligned.metric_scale[1].item<double>(), out.metric_scale[1].item<double>());
-  EXPECT_LT(max_difference(aligned.points[0], 3.0 * out.points[0]), 1e-4);
-  EXPECT_TRUE(at::equal(aligned.points[1], out.points[1]));
-  EXPECT_THROW(align_to_metric_sparse_depth(out, sparse.narrow(1, 0, 10)), std::invalid_argument);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Initialisation
 
 const std::string kFixture = std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a";
-
 TEST(OmniPointInit, FromMoGe2FixtureKeepsMoGe2Features) {
   const io::SafetensorsFile file = io::read_safetensors(kFixture + "/model.safetensors");
   const MoGe2Config moge2_config = MoGe2Config::from_json_text(file.metadata.at("config"));

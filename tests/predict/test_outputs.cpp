@@ -55,6 +55,7 @@ TEST(PredictOutputs, OracleFilesRoundTrip) {
   const at::Tensor mask = synth.sample.mask;
   ASSERT_GT(mask.sum().item<int64_t>(), 1000);
   // npy: distance, rays and depth as given; points = d·r.
+  EXPECT_TRUE(at::equal(io::read_npy((folder / "points.npy").string()), p.points));
   EXPECT_TRUE(at::equal(io::read_npy((folder / "distance.npy").string()), p.distance));
   EXPECT_TRUE(at::equal(io::read_npy((folder / "rays.npy").string()), p.rays));
   const at::Tensor depth = io::read_npy((folder / "depth.npy").string());

@@ -67,8 +67,8 @@ TEST_F(PredictCli, WritesEveryOutput) {
   ASSERT_EQ(run.status, 0) << run.err;
   for (const std::string name : {"good", "grey16"})
     for (const std::string file :
-         {"points.ply", "points.glb", "distance.npy", "depth.npy", "rays.npy", "mask.png",
-          "depth.png", "depth_vis.png", "preview.png", "camera.json"})
+         {"points.ply", "points.glb", "points.npy", "distance.npy", "depth.npy", "rays.npy",
+          "mask.png", "depth.png", "depth_vis.png", "preview.png", "camera.json"})
       EXPECT_TRUE(fs::is_regular_file(dir_ / "out" / name / file)) << name << "/" << file;
   EXPECT_NE(run.err.find("[2/2]"), std::string::npos) << run.err;  // progress for several images
 }

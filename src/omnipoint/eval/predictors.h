@@ -1,11 +1,12 @@
 #pragma once
-// Predictors for the benchmark runner (runner.h): the two network kinds, external point maps,
-// and two reference "models" that bracket every score.
-//   omnipoint:  OmniPointModel::forward with the mode's conditions (ray map, sparse distances);
-//               with sparse depth on a metric sample, the metric scale is post-aligned to it
-//               (align_to_metric_sparse_depth, as the paper does).
-//   moge2:      MoGe-2's infer() (no conditions); its points give rays and distances; not
-//               metric without a scale head.
+// Predictors for the benchmark runner (runner.h): networks, external point maps, and two
+// reference "models" that bracket every score.
+//   network:    infer::run (the inference path `omnipoint predict` ships) with the mode's
+//               conditions: +K gives the sample's camera (OmniPoint only: it is no input to
+//               MoGe-2), +D the sampled GT distances, which also align the metric scale on
+//               metric samples (geometry::fit_scale_to_sparse_depth, the paper's post-alignment).
+//               MoGe-2's points give rays and distances; not metric without a scale head.
+//               Scored: the point map predict ships (infer::point_map, zero outside its mask).
 //   point maps: an (H, W, 3) metric point map per sample (external predictions); rays and
 //               distances are its directions and norms (zero / non-finite points: no ray).
 //   oracle:     the ground truth's own rays and distances (scores Rel 0, δ1 1 everywhere).
@@ -17,16 +18,13 @@
 #include <string>
 
 #include "omnipoint/eval/runner.h"
-#include "omnipoint/model/moge2.h"
-#include "omnipoint/model/omnipoint_model.h"
+#include "omnipoint/infer/infer.h"
 
 namespace omnipoint::eval {
 
-// num_tokens 0: the image's native token count, H·W / patch² (at least 1).
-Predictor omnipoint_predictor(model::OmniPointModel model, const std::string& name,
-                              int64_t num_tokens = 0, at::Device device = at::kCPU);
-Predictor moge2_predictor(model::MoGe2Model model, const std::string& name, int64_t num_tokens = 0,
-                          at::Device device = at::kCPU);
+// num_tokens 0: the model's default (infer::Network::default_num_tokens).
+Predictor network_predictor(infer::Network network, const std::string& name,
+                            int64_t num_tokens = 0);
 // `load` returns the sample's point map or throws MissingPrediction.
 Predictor point_map_predictor(const std::string& name,
                               std::function<at::Tensor(const EvalSample&)> load);

@@ -76,6 +76,12 @@ Conditions make_conditions(const data::Sample& sample, const Mode& mode,
   return conditions;
 }
 
+at::Tensor scored_points(const GeometryPrediction& prediction) {
+  if (prediction.points.defined()) return prediction.points.to(at::kFloat);
+  return (prediction.metric_scale * prediction.distance.to(at::kFloat)).unsqueeze(-1) *
+         prediction.rays.to(at::kFloat);
+}
+
 Metrics score_sample(const data::Sample& sample, Split split,
                      const GeometryPrediction& prediction) {
   const auto height = sample.distance.size(0), width = sample.distance.size(1);
@@ -87,6 +93,7 @@ Metrics score_sample(const data::Sample& sample, Split split,
   };
   expect(prediction.rays, {height, width, 3}, "rays");
   expect(prediction.distance, {height, width}, "distance");
+  if (prediction.points.defined()) expect(prediction.points, {height, width, 3}, "points");
 
   const auto ray_map = sample.camera.ray_map(at::kFloat);
   GroundTruth gt;
@@ -96,8 +103,7 @@ Metrics score_sample(const data::Sample& sample, Split split,
   gt.is_metric = sample.metric;
 
   Prediction pred;
-  pred.points = (prediction.metric_scale * prediction.distance.to(at::kFloat)).unsqueeze(-1) *
-                prediction.rays.to(at::kFloat);
+  pred.points = scored_points(prediction);
   pred.depth = split == Split::kSmallFov ? pred.points.select(-1, 2)
                                          : at::linalg_vector_norm(pred.points, 2, {-1});
   pred.is_metric = prediction.is_metric;
@@ -176,8 +182,9 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
           const auto t0 = std::chrono::steady_clock::now();
           const Conditions conditions = make_conditions(
               sample.sample, mode, options.sparse_depth_points, sample_seed(item.id, options.seed));
-          Metrics metrics =
-              score_sample(sample.sample, sample.split, predictor.predict(sample, conditions));
+          const GeometryPrediction prediction = predictor.predict(sample, conditions);
+          Metrics metrics = score_sample(sample.sample, sample.split, prediction);
+          if (options.scored) options.scored(sample, mode, conditions, prediction);
           const double seconds =
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           lines.push_back(nlohmann::json{{"dataset", root},

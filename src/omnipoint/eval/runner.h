@@ -6,6 +6,8 @@
 // Every predictor answers with rays, distances and a metric scale, so models of any kind and
 // external point maps are scored identically:
 //   points = metric_scale · distance · ray   (metric_scale 1 and not metric when it has none)
+// A network's point map is the one `omnipoint predict` ships (infer::point_map: zero where its
+// mask is false), so a masked pixel scores as predict writes it.
 //   "depth" = points.z on the small-FoV (pinhole) split, where it is MoGe's planar depth;
 //             the radial distance ‖points‖ on the fisheye and 360° splits, where planar depth
 //             is ≤ 0 for rays at or beyond 90° from the axis (same definition for the GT).
@@ -62,6 +64,9 @@ struct GeometryPrediction {
   at::Tensor distance;  // (H, W) along them
   double metric_scale = 1.0;
   bool is_metric = false;  // whether metric_scale makes the points metres
+  // (H, W, 3) the point map to score, when the predictor ships one (a network: predict's,
+  // infer::point_map, zero outside its mask); else metric_scale · distance · ray.
+  at::Tensor points{};
 };
 
 // Thrown by a predictor that has no prediction for a sample (e.g. a missing external file):
@@ -84,6 +89,10 @@ struct RunOptions {
   bool moge_metric = true;  // MoGe benchmark depth is in metres
   // Called after each sample: (samples done, total, seconds elapsed).
   std::function<void(int64_t, int64_t, double)> progress;
+  // Called with each sample × mode's conditions and prediction once scored (`omnipoint eval
+  // --save-points`).
+  std::function<void(const EvalSample&, const Mode&, const Conditions&, const GeometryPrediction&)>
+      scored;
 };
 
 // The scores of one split and mode, averaged over its samples (NaN entries excluded, counted).
@@ -115,6 +124,9 @@ struct RunResult {
 // be read or predicted is skipped, with its reason counted and recorded.
 RunResult run_benchmark(const Predictor& predictor, const std::vector<std::string>& datasets,
                         const RunOptions& options);
+
+// The point map a prediction is scored by (GeometryPrediction::points).
+at::Tensor scored_points(const GeometryPrediction& prediction);
 
 // The scores of one sample: ground truth from the sample, prediction from `prediction`.
 Metrics score_sample(const data::Sample& sample, Split split, const GeometryPrediction& prediction);

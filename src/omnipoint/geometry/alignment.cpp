@@ -492,6 +492,16 @@ ScaleFit fit_scale_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor
   return reshape_fit(scale_fit_rows(rows(xs), rows(ys), rows(ws)), batch_shape_of(x, 1));
 }
 
+at::Tensor fit_scale_to_sparse_depth(const at::Tensor& x, const at::Tensor& y,
+                                     const at::Tensor& mask) {
+  check_same_shape(x, y, "prediction", "sparse depth");
+  at::Tensor usable = at::isfinite(y) & (y > 0) & at::isfinite(x) & (x > 0);
+  if (mask.defined()) usable = usable & mask;
+  const at::Tensor weight = at::where(usable, y.reciprocal(), at::zeros_like(y));
+  const at::Tensor scale = fit_scale_l1(x, y, weight, usable).scale;
+  return at::where(usable.any(-1), scale, at::ones_like(scale));
+}
+
 ScaleFit fit_scale_l1_truncated(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
                                 double trunc, const at::Tensor& mask) {
   if (!(trunc > 0)) throw std::invalid_argument("alignment: trunc must be positive");

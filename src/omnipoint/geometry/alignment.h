@@ -26,6 +26,13 @@ struct ScaleFit {
 ScaleFit fit_scale_l1(const at::Tensor& x, const at::Tensor& y, const at::Tensor& weight,
                       const at::Tensor& mask = {});
 
+// The metric post-alignment to sparse depth (paper): per item the factor a minimising
+// Σ |a·x_i − y_i| / y_i over the samples with y finite and > 0, x > 0 and `mask` — fit_scale_l1
+// with weights 1/y. x = predicted metric distances, y = sparse metric distances, (..., n);
+// items without such samples get 1.
+at::Tensor fit_scale_to_sparse_depth(const at::Tensor& x, const at::Tensor& y,
+                                     const at::Tensor& mask = {});
+
 // The truncated variant used by MoGe's training losses: min_a Σ min(trunc, w_i|a·x_i − y_i|)
 // (trunc > 0). The objective is not convex, but its minimum lies at one of the ratios
 // y_i/x_i; all n candidates are scored at once with prefix sums, O(n log n).

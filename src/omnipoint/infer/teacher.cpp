@@ -1,55 +1,40 @@
 #include "omnipoint/infer/teacher.h"
 
 #include <ATen/ATen.h>
-#include <c10/core/InferenceMode.h>
 
-#include "omnipoint/model/moge2_infer.h"
+#include <utility>
 
 namespace omnipoint::infer {
-namespace {
 
-// (h, w, 3) in [0, 1] -> (1, 3, h, w) on the model's device and dtype.
-at::Tensor model_input(const at::Tensor& image, const at::TensorOptions& options) {
-  return image.permute({2, 0, 1}).unsqueeze(0).to(options).contiguous();
+augment::Teacher teacher(const Network& network, int64_t num_tokens, bool use_intrinsics) {
+  return
+      [network, num_tokens, use_intrinsics](const at::Tensor& image, const camera::Camera& camera) {
+        Inputs inputs;
+        inputs.images = image.permute({2, 0, 1}).unsqueeze(0);  // (h, w, 3) -> (1, 3, h, w)
+        if (use_intrinsics && network.omnipoint()) inputs.camera = camera;
+        inputs.num_tokens = num_tokens;
+        const Result result = run(network, inputs);
+        const auto back = image.options();
+        augment::TeacherPrediction prediction;
+        prediction.rays = result.rays[0].to(back);
+        prediction.confident = result.mask[0].to(image.device());
+        const at::Tensor distance = (result.metric_scale[0] * result.distance[0]).to(back);
+        prediction.distance =
+            network.moge2() ? at::where(prediction.confident, distance, at::zeros_like(distance))
+                            : distance;
+        return prediction;
+      };
 }
-
-}  // namespace
 
 augment::Teacher omnipoint_teacher(model::OmniPointModel model, int64_t num_tokens,
                                    bool use_intrinsics) {
-  return [model, num_tokens, use_intrinsics](const at::Tensor& image,
-                                             const camera::Camera& camera) mutable {
-    c10::InferenceMode inference;
-    const at::Tensor reference = model->parameters().front();
-    model::OmniPointInputs inputs;
-    inputs.image = model_input(image, reference.options());
-    if (use_intrinsics)
-      inputs.rays = camera.ray_map(reference.options()).rays.permute({2, 0, 1}).unsqueeze(0);
-    const model::OmniPointOutput out = model->forward(inputs, num_tokens);
-    const auto back = image.options();
-    augment::TeacherPrediction prediction;
-    prediction.rays = out.rays.squeeze(0).to(back);
-    prediction.distance = out.points.squeeze(0).norm(2, -1).to(back);
-    prediction.confident =
-        (out.mask.squeeze(0) > 0.5).to(image.device()) & at::isfinite(prediction.distance);
-    return prediction;
-  };
+  const at::Device device = model->parameters().front().device();
+  return teacher(Network(std::move(model), device), num_tokens, use_intrinsics);
 }
 
 augment::Teacher moge2_teacher(model::MoGe2Model model, int64_t num_tokens) {
-  return [model, num_tokens](const at::Tensor& image, const camera::Camera&) mutable {
-    const at::Tensor reference = model->parameters().front();
-    const model::MoGe2Inference out =
-        model::infer(model, model_input(image, reference.options()), num_tokens);
-    const auto back = image.options();
-    augment::TeacherPrediction prediction;
-    prediction.rays = out.rays.squeeze(0).to(back);
-    const at::Tensor distance = out.distance.squeeze(0).to(back);
-    prediction.confident =
-        out.mask.squeeze(0).to(image.device()) & at::isfinite(distance) & (distance > 0);
-    prediction.distance = at::where(prediction.confident, distance, at::zeros_like(distance));
-    return prediction;
-  };
+  const at::Device device = model->parameters().front().device();
+  return teacher(Network(std::move(model), device), num_tokens);
 }
 
 }  // namespace omnipoint::infer

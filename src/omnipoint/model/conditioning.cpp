@@ -101,28 +101,4 @@ at::Tensor sparse_depth_features(const at::Tensor& sparse_depth, int64_t height,
   return at::stack({splatted.smooth, splatted.mask}, 1);
 }
 
-at::Tensor sparse_depth_alignment_scale(const at::Tensor& predicted_distance,
-                                        const at::Tensor& sparse_depth) {
-  const at::Tensor valid = sparse_depth_valid(sparse_depth);
-  if (predicted_distance.sizes() != sparse_depth.sizes()) {
-    throw std::invalid_argument(
-        "sparse depth alignment: the predicted distance (B,H,W) and the "
-        "sparse depth must have the same shape");
-  }
-  const at::Tensor usable = valid.logical_and(predicted_distance > 0).flatten(1);
-  const at::Tensor x = predicted_distance.flatten(1);
-  const at::Tensor y = at::where(usable, sparse_depth.flatten(1), at::ones_like(x));
-  // Unusable samples sort last (ratio +inf) and weigh nothing.
-  const at::Tensor ratio = at::where(usable, y / x.clamp_min(1e-12), at::full_like(x, INFINITY));
-  const at::Tensor weight = at::where(usable, x / y, at::zeros_like(x));
-  const auto [sorted_ratio, order] = ratio.sort(1);
-  const at::Tensor cumulative = weight.gather(1, order).cumsum(1);
-  const at::Tensor total = cumulative.select(1, -1).unsqueeze(1);
-  // The first k with 2·c_k − T ≥ 0 (exists whenever T > 0).
-  const at::Tensor reached = (2 * cumulative - total >= 0).to(at::kInt);
-  const at::Tensor first = reached.argmax(1, /*keepdim=*/true);
-  const at::Tensor scale = sorted_ratio.gather(1, first).squeeze(1);
-  return at::where(usable.any(1), scale, at::ones_like(scale));
-}
-
 }  // namespace omnipoint::model

@@ -6,8 +6,9 @@
 //   conv encoder -> added to the patch embeddings;
 // - the sparse-depth branch: depth normalised by its valid mean, densified by Gaussian
 //   splatting, with the sample mask [D_smooth, M] -> a conv encoder -> added to the patch
-//   embeddings;
-// - for metric sparse depth, a post-alignment of the predicted metric scale to it.
+//   embeddings.
+// (The post-alignment of the metric scale to metric sparse depth is
+// geometry::fit_scale_to_sparse_depth, applied by infer::run.)
 //
 // Conventions. A condition is given per batch item, and an item's condition is present when it
 // holds any valid value: a ray map (B,3,H,W) is valid where the ray is finite and non-zero
@@ -68,12 +69,5 @@ TORCH_MODULE(ConditionEncoder);
 // normalised samples). Returns (B,2,h,w) = [D_smooth, M]; items without samples are zero.
 at::Tensor sparse_depth_features(const at::Tensor& sparse_depth, int64_t height, int64_t width,
                                  const ConditioningConfig& config);
-
-// Metric post-alignment: per item, the scale a minimising sum_i |a·x_i − y_i| / y_i over the
-// valid sparse samples (y = sparse metric distance, x = predicted metric distance at the same
-// pixel): the weighted median of y/x with weights x/y. Items without samples get 1.
-// predicted_distance and sparse_depth are (B,H,W); returns (B).
-at::Tensor sparse_depth_alignment_scale(const at::Tensor& predicted_distance,
-                                        const at::Tensor& sparse_depth);
 
 }  // namespace omnipoint::model

@@ -185,20 +185,4 @@ OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64
   return out;
 }
 
-OmniPointOutput align_to_metric_sparse_depth(const OmniPointOutput& output,
-                                             const at::Tensor& sparse_depth) {
-  if (sparse_depth.dim() != 3 || sparse_depth.sizes() != output.distance.sizes())
-    throw std::invalid_argument(
-        "metric alignment: the sparse depth must be (B,H,W) at the output's size");
-  const int64_t batch = output.distance.size(0);
-  const at::Tensor metric_distance = output.metric_scale.view({batch, 1, 1}) * output.distance;
-  const at::Tensor factor =
-      sparse_depth_alignment_scale(metric_distance, sparse_depth.to(metric_distance.options()));
-  OmniPointOutput aligned = output;
-  aligned.metric_scale = output.metric_scale * factor;
-  aligned.log_metric_scale = output.log_metric_scale + at::log(factor);
-  aligned.points = output.points * factor.view({batch, 1, 1, 1});
-  return aligned;
-}
-
 }  // namespace omnipoint::model

@@ -103,9 +103,4 @@ TORCH_MODULE(OmniPointModel);
 // encoders and state embeddings), which a config may add or drop around the same network.
 bool is_conditioning_tensor(const std::string& name);
 
-// Metric post-alignment to metric sparse depth: the metric scale (and the points) rescaled by
-// sparse_depth_alignment_scale(ŝ·d̂, sparse_depth). Items without samples are unchanged.
-OmniPointOutput align_to_metric_sparse_depth(const OmniPointOutput& output,
-                                             const at::Tensor& sparse_depth);
-
 }  // namespace omnipoint::model

@@ -84,6 +84,7 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
         geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
     io::write_ply((staging / "points.ply").string(), cloud.points, cloud.colors);
     io::write_glb_points((staging / "points.glb").string(), cloud.points, cloud.colors);
+    io::write_npy((staging / "points.npy").string(), p.points.to(at::kFloat));
     io::write_npy((staging / "distance.npy").string(), p.distance.to(at::kFloat));
     io::write_npy((staging / "depth.npy").string(), p.depth.to(at::kFloat));
     io::write_npy((staging / "rays.npy").string(), p.rays.to(at::kFloat));

@@ -2,6 +2,8 @@
 // The files of one prediction (the per-image folder of `omnipoint predict`):
 //   points.ply      binary PLY, coloured, valid points only (metres, camera frame)
 //   points.glb      the same cloud as a glTF 2.0 binary POINTS primitive (io/glb.h)
+//   points.npy      (H, W, 3) float32 metric points, 0 where invalid (the PLY's source; the
+//                   point map `omnipoint eval` scores)
 //   distance.npy    (H, W) float32 metric radial distance, 0 where invalid
 //   depth.npy       (H, W) float32 planar depth z, 0 where invalid
 //   rays.npy        (H, W, 3) float32 unit rays

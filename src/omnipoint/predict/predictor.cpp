@@ -1,5 +1,5 @@
-// Model::load / predict: the network behind one call, with its conditions prepared from the
-// user's camera and sparse depth, the metric alignment and the camera fit after it.
+// Model::load / predict: the user's image, camera and sparse depth prepared for infer::run (the
+// one inference path), then the camera fit and the packaging into CPU predictions.
 #include "omnipoint/predict/predictor.h"
 
 #include <ATen/ATen.h>
@@ -10,28 +10,15 @@
 #include <stdexcept>
 #include <utility>
 
-#include "omnipoint/augment/a2p.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/geometry/sparse_sampling.h"
-#include "omnipoint/infer/teacher.h"
-#include "omnipoint/io/safetensors.h"
-#include "omnipoint/model/conditioning.h"
-#include "omnipoint/model/moge2.h"
-#include "omnipoint/model/moge2_infer.h"
-#include "omnipoint/model/omnipoint_model.h"
-#include "omnipoint/model/omnipoint_weights.h"
+#include "omnipoint/infer/infer.h"
 
 namespace omnipoint::predict {
 
 struct Model::Impl {
-  std::string format;
-  at::Device device = at::kCPU;
-  int64_t default_num_tokens = 0;
-  // Modules are not const-callable; forward passes in inference mode mutate nothing, which is
-  // what makes concurrent predict calls safe.
-  mutable model::OmniPointModel omnipoint{nullptr};
-  mutable model::MoGe2Model moge2{nullptr};
+  infer::Network network;
 };
 
 namespace {
@@ -42,23 +29,17 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// Raw network geometry of a batch: (B,H,W,3) rays, (B,H,W) scale-invariant distance,
-// (B,H,W) bool mask, (B) metric scale.
-struct NetworkGeometry {
-  at::Tensor rays, distance, mask, metric_scale;
-};
-
-// (B,H,W,3) images -> (B,3,H,W) float32 in [0,1] on the device.
+// (B,H,W,3) images -> (B,3,H,W) float32 in [0,1] on the device, the layout infer::run takes.
 at::Tensor network_input(const at::Tensor& images, at::Device device) {
   if (images.dim() != 4 || images.size(3) != 3 || images.size(1) < 1 || images.size(2) < 1)
     throw std::invalid_argument("predict: expected images (H, W, 3) or (B, H, W, 3) RGB, got " +
                                 c10::str(images.sizes()));
-  at::Tensor input =
-      images.scalar_type() == at::kByte ? images.to(at::kFloat) / 255.0 : images.to(at::kFloat);
+  at::Tensor input = images.to(device);
+  input = input.scalar_type() == at::kByte ? input.to(at::kFloat) / 255.0 : input.to(at::kFloat);
   if (!at::isfinite(input).all().item<bool>() || input.min().item<float>() < 0 ||
       input.max().item<float>() > 1)
     throw std::invalid_argument("predict: image values must be finite RGB in [0, 1]");
-  return input.permute({0, 3, 1, 2}).contiguous().to(device);
+  return input.permute({0, 3, 1, 2}).contiguous();
 }
 
 camera::Camera camera_for_image(const camera::Camera& camera, int64_t width, int64_t height) {
@@ -71,43 +52,6 @@ camera::Camera camera_for_image(const camera::Camera& camera, int64_t width, int
                                 std::to_string(width) + "x" + std::to_string(height) +
                                 " (a different aspect ratio)");
   return camera.resized(width, height);
-}
-
-NetworkGeometry run_network(const Model::Impl& impl, const at::Tensor& input,
-                            const at::Tensor& rays, const at::Tensor& sparse_distance,
-                            int64_t num_tokens) {
-  if (impl.omnipoint) {
-    model::OmniPointInputs inputs;
-    inputs.image = input;
-    if (rays.defined()) inputs.rays = rays.permute({0, 3, 1, 2}).contiguous();
-    inputs.sparse_depth = sparse_distance;
-    const model::OmniPointOutput out = impl.omnipoint->forward(inputs, num_tokens);
-    return {out.rays, out.distance, out.mask > 0.5, out.metric_scale};
-  }
-  model::MoGe2InferOptions options;
-  options.apply_mask = false;
-  const model::MoGe2Inference out = model::infer(impl.moge2, input, num_tokens, options);
-  const at::Tensor scale =
-      out.metric_scale.defined() ? out.metric_scale : at::ones({input.size(0)}, input.options());
-  // infer's points are already metric: divide the scale back out of the distances.
-  return {out.rays, out.distance / scale.view({-1, 1, 1}), out.mask, scale};
-}
-
-// A perspective-only model (MoGe-2) on a wide camera: A2P's multi-view mode — pinhole views
-// tiling the camera's field of view, each predicted and merged scale-consistently.
-NetworkGeometry run_multi_view(const Model::Impl& impl, const at::Tensor& input,
-                               const camera::Camera& camera, const at::Tensor& camera_rays,
-                               int64_t num_tokens) {
-  const augment::Teacher teacher = infer::moge2_teacher(impl.moge2, num_tokens);
-  std::vector<at::Tensor> distances, masks;
-  for (int64_t b = 0; b < input.size(0); ++b) {
-    const augment::MergedPrediction merged =
-        augment::predict_wide_from_views(camera, input[b].permute({1, 2, 0}), teacher);
-    distances.push_back(merged.distance.to(input.options()));
-    masks.push_back(merged.mask.to(input.device()));
-  }
-  const at::Tensor distance = at::stack(distances), mask = at::stack(masks) & (distance > 0);
-  return {camera_rays, distance, mask, at::ones({input.size(0)}, input.options())};
 }
 
 std::optional<camera::Camera> fit(const std::string& requested,
@@ -127,45 +71,35 @@ std::optional<camera::Camera> fit(const std::string& requested,
   }
 }
 
+// One image's Prediction from its shipped geometry (infer::point_map: the masking rule).
+Prediction prediction(const infer::PointMap& map, double metric_scale) {
+  Prediction p;
+  p.rays = map.rays;
+  p.distance = map.distance;
+  p.points = map.points;
+  p.mask = map.mask;
+  p.depth = geometry::planar_depth(p.points);
+  p.metric_scale = metric_scale;
+  return p;
+}
+
 }  // namespace
 
 Model Model::load(const std::string& path, at::Device device) {
-  const io::SafetensorsFile file = io::read_safetensors(path);
-  auto impl = std::make_shared<Impl>();
-  impl->device = device;
-  const auto format = file.metadata.find("format");
-  impl->format = format == file.metadata.end() ? "moge2" : format->second;
-  try {
-    if (impl->format == "omnipoint") {
-      impl->omnipoint = model::load_omnipoint_model(file.tensors, file.metadata);
-      impl->omnipoint->eval();
-      impl->omnipoint->to(device);
-      impl->default_num_tokens = impl->omnipoint->config().num_tokens_range[1];
-    } else if (impl->format == "moge2") {
-      impl->moge2 = model::load_moge2(file.tensors, file.metadata);
-      impl->moge2->eval();
-      impl->moge2->to(device);
-      impl->default_num_tokens = impl->moge2->config().default_num_tokens();
-    } else {
-      throw std::invalid_argument("unknown metadata format \"" + impl->format +
-                                  "\" (expected \"omnipoint\" or \"moge2\")");
-    }
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("model " + path + ": " + e.what());
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error("model " + path + ": " + e.what());
-  }
-  return Model(std::move(impl));
+  return Model(std::make_shared<Impl>(Impl{infer::load_network(path, device)}));
 }
 
 const std::string& Model::format() const {
-  return impl_->format;
+  return impl_->network.format();
 }
 at::Device Model::device() const {
-  return impl_->device;
+  return impl_->network.device();
 }
 int64_t Model::default_num_tokens() const {
-  return impl_->default_num_tokens;
+  return impl_->network.default_num_tokens();
+}
+const infer::Network& Model::network() const {
+  return impl_->network;
 }
 
 Prediction Model::predict(const at::Tensor& image, const PredictOptions& options) const {
@@ -185,13 +119,18 @@ Prediction Model::predict(const at::Tensor& image, const PredictOptions& options
 std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
                                              const PredictOptions& options) const {
   c10::InferenceMode inference;
+  const infer::Network& network = impl_->network;
   StageTimes timing;
   std::vector<std::string> notes;
+
+  // Prepare: the images once to the device in the network's layout, the camera at their size.
   auto start = Clock::now();
-  const at::Tensor input = network_input(images, impl_->device);
-  const int64_t batch = input.size(0), height = input.size(2), width = input.size(3);
-  const int64_t num_tokens =
-      options.num_tokens > 0 ? options.num_tokens : impl_->default_num_tokens;
+  infer::Inputs inputs;
+  inputs.images = network_input(images, network.device());
+  inputs.num_tokens = options.num_tokens;
+  inputs.align_to_sparse_depth = options.align_to_sparse_depth;
+  const int64_t batch = inputs.images.size(0), height = inputs.images.size(2),
+                width = inputs.images.size(3);
   const SparseDepthInput& sparse = options.sparse_depth;
   if (sparse.lidar_points.defined() && batch != 1)
     throw std::invalid_argument("predict: a point-cloud sparse depth needs a batch of one image");
@@ -200,45 +139,25 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
     throw std::invalid_argument(
         "predict: the sparse depth maps must be (B, H, W) with B = " + std::to_string(batch) +
         ", got " + c10::str(sparse.depth_map.sizes()));
-
-  std::optional<camera::Camera> camera;
-  at::Tensor camera_rays;   // (B,H,W,3) on the device
-  at::Tensor camera_valid;  // (H,W) where the camera has rays
-  bool multi_view = false;  // a perspective-only model on a wide camera
-  if (options.camera) {
-    camera = camera_for_image(*options.camera, width, height);
-    const camera::Rays ray_map = camera->ray_map(input.options());
-    camera_rays = ray_map.rays.unsqueeze(0).expand({batch, height, width, 3});
-    camera_valid = ray_map.valid;
-    if (impl_->moge2) {
-      multi_view =
-          auto_fit_model(ray_map.rays.to(at::kCPU), ray_map.valid.to(at::kCPU)) != "PINHOLE";
-      notes.push_back(
-          multi_view
-              ? "MoGe-2 checkpoint on a wide camera: multi-view mode (pinhole views tiling the "
-                "field of view, predicted and merged)"
-              : "MoGe-2 checkpoint: the camera is not a network input (pinhole model)");
-    }
-  }
+  if (options.camera) inputs.camera = camera_for_image(*options.camera, width, height);
   timing.prepare_ms += ms_since(start);
 
   // The sparse depth as radial distances needs rays (planar maps) or a camera (point clouds);
-  // without a given camera they come from a first pass without sparse depth.
-  at::Tensor sparse_distance;  // (B,H,W)
+  // without a given camera they come from a first run without sparse depth.
   if (!sparse.empty()) {
-    at::Tensor rays = camera_rays;
-    std::optional<camera::Camera> projection = camera;
+    at::Tensor rays;  // (B,H,W,3)
+    std::optional<camera::Camera> projection = inputs.camera;
     const bool needs_rays = sparse.depth_map.defined() && sparse.depth_is_planar;
-    if (!camera && (needs_rays || sparse.lidar_points.defined())) {
-      start = Clock::now();
-      const NetworkGeometry first = run_network(*impl_, input, {}, {}, num_tokens);
-      timing.network_ms += ms_since(start);
-      rays = first.rays;
+    if (inputs.camera && needs_rays) {
+      rays = inputs.camera->ray_map(at::kFloat).rays.unsqueeze(0).expand({batch, height, width, 3});
+    } else if (!inputs.camera && (needs_rays || sparse.lidar_points.defined())) {
+      const infer::Result first = infer::run(network, inputs);
+      timing.network_ms += first.timing.network_ms;
+      rays = first.rays.to(at::kCPU);
       if (sparse.lidar_points.defined()) {
         start = Clock::now();
         std::string error;
-        projection = fit("auto", std::nullopt, first.rays[0].to(at::kCPU),
-                         first.mask[0].to(at::kCPU), &error);
+        projection = fit("auto", std::nullopt, rays[0], first.mask[0].to(at::kCPU), &error);
         timing.camera_fit_ms += ms_since(start);
         if (!projection)
           throw std::invalid_argument(
@@ -257,56 +176,35 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
       if (item.depth_map.defined()) item.depth_map = sparse.depth_map[b];
       maps.push_back(sparse_distance_map(item, width, height,
                                          rays.defined() ? rays[b] : at::Tensor(),
-                                         projection ? &*projection : nullptr)
-                         .to(input.options()));
+                                         projection ? &*projection : nullptr));
     }
-    sparse_distance = at::stack(maps);
-    if (impl_->moge2)
-      notes.push_back("MoGe-2 checkpoint: the sparse depth only aligns the metric scale");
+    inputs.sparse_distance = at::stack(maps).to(network.device());
     timing.prepare_ms += ms_since(start);
   }
 
-  start = Clock::now();
-  const NetworkGeometry net =
-      multi_view ? run_multi_view(*impl_, input, *camera, camera_rays, num_tokens)
-                 : run_network(*impl_, input, camera_rays,
-                               impl_->omnipoint ? sparse_distance : at::Tensor(), num_tokens);
-  at::Tensor scale = net.metric_scale;
-  timing.network_ms += ms_since(start);
+  // Network and alignment.
+  const infer::Result result = infer::run(network, inputs);
+  timing.network_ms += result.timing.network_ms;
+  timing.alignment_ms += result.timing.alignment_ms;
+  notes.insert(notes.end(), result.notes.begin(), result.notes.end());
 
-  start = Clock::now();
-  at::Tensor factor = at::ones_like(scale);
-  at::Tensor samples = at::zeros({batch}, scale.options().dtype(at::kLong));
-  if (sparse_distance.defined()) {
-    const at::Tensor usable = (sparse_distance > 0) & net.mask;
-    samples = usable.flatten(1).sum(1);
-    if (options.align_to_sparse_depth) {
-      factor = model::sparse_depth_alignment_scale(
-          scale.view({batch, 1, 1}) * net.distance,
-          at::where(usable, sparse_distance, at::zeros_like(sparse_distance)));
-      scale = scale * factor;
-    }
-  }
-  timing.alignment_ms += ms_since(start);
-
+  // Camera fit and packaging: to the CPU once, then per image.
+  const infer::PointMap shipped = infer::point_map(result);
+  const at::Tensor rays = shipped.rays.to(at::kCPU, at::kFloat),
+                   distance = shipped.distance.to(at::kCPU, at::kFloat),
+                   points = shipped.points.to(at::kCPU, at::kFloat),
+                   mask = shipped.mask.to(at::kCPU),
+                   scale = result.metric_scale.to(at::kCPU, at::kDouble),
+                   factor = result.alignment_factor.to(at::kCPU, at::kDouble),
+                   samples = result.sparse_samples.to(at::kCPU);
   std::vector<Prediction> predictions;
-  const at::Tensor scale_cpu = scale.to(at::kCPU, at::kDouble),
-                   factor_cpu = factor.to(at::kCPU, at::kDouble);
-  const at::Tensor samples_cpu = samples.to(at::kCPU);
   for (int64_t b = 0; b < batch; ++b) {
-    const double s = scale_cpu[b].item<double>();
-    // A given camera is used as it is: its rays carry the predicted distances (pixels outside
-    // its domain are invalid); the predicted rays stand in only for an unknown camera.
-    const at::Tensor rays = camera_rays.defined() ? camera_rays[b] : net.rays[b];
-    const at::Tensor mask = camera_rays.defined() ? net.mask[b] & camera_valid : net.mask[b];
-    Prediction p = prediction_from_geometry(rays.to(at::kCPU, at::kFloat),
-                                            (net.distance[b] * s).to(at::kCPU, at::kFloat),
-                                            mask.to(at::kCPU), s);
-    p.alignment_factor = factor_cpu[b].item<double>();
-    p.sparse_samples = samples_cpu[b].item<int64_t>();
+    Prediction p = prediction({rays[b], distance[b], points[b], mask[b]}, scale[b].item<double>());
+    p.alignment_factor = factor[b].item<double>();
+    p.sparse_samples = samples[b].item<int64_t>();
     p.notes = notes;
     start = Clock::now();
-    p.fitted_camera = fit(options.fit_model, camera, p.rays, p.mask, &p.fit_error);
+    p.fitted_camera = fit(options.fit_model, inputs.camera, p.rays, p.mask, &p.fit_error);
     p.timing = timing;
     p.timing.camera_fit_ms += ms_since(start);
     predictions.push_back(std::move(p));
@@ -366,14 +264,7 @@ Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& di
     throw std::invalid_argument(
         "prediction: expected rays (H, W, 3), distance (H, W) and mask (H, W), got " +
         c10::str(rays.sizes()) + ", " + c10::str(distance.sizes()) + ", " + c10::str(mask.sizes()));
-  Prediction p;
-  p.mask = mask.to(at::kBool) & at::isfinite(distance) & (distance > 0) & (rays.norm(2, -1) > 0.5);
-  p.rays = at::where(at::isfinite(rays), rays, at::zeros_like(rays));
-  p.distance = at::where(p.mask, distance, at::zeros_like(distance));
-  p.points = geometry::points_from_rays(p.rays, p.distance);
-  p.depth = geometry::planar_depth(p.points);
-  p.metric_scale = metric_scale;
-  return p;
+  return prediction(infer::point_map(rays, distance, mask), metric_scale);
 }
 
 }  // namespace omnipoint::predict

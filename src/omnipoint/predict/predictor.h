@@ -15,8 +15,11 @@
 // Models: OmniPoint checkpoints (metadata "format": "omnipoint") take the camera as their ray
 // condition and the sparse depth as their depth condition; MoGe-2 checkpoints ("moge2") run as
 // pinhole models — their points give rays and distances, the camera is not an input to them and
-// the sparse depth only serves the metric alignment; on a wide camera (fisheye, panorama) they
-// run in A2P's multi-view mode (augment/a2p.h). Prediction::notes says which.
+// the sparse depth only serves the metric alignment; on a wide camera (camera::camera_class:
+// fisheye, unified, FOV models, panoramas) they run in A2P's multi-view mode (augment/a2p.h).
+// Prediction::notes says which. These rules live in infer::run (omnipoint/infer/infer.h), the
+// inference path `omnipoint eval` scores too; predict adds the inputs' conversion, the camera
+// fit and the CPU outputs.
 #include <ATen/core/Tensor.h>
 #include <c10/core/Device.h>
 
@@ -27,6 +30,10 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+
+namespace omnipoint::infer {
+class Network;
+}
 
 namespace omnipoint::predict {
 
@@ -50,7 +57,7 @@ struct PredictOptions {
   // (invalid outside its domain). Without it the model predicts the rays.
   std::optional<camera::Camera> camera;
   SparseDepthInput sparse_depth;
-  int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (MoGe-2's top level)
+  int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (infer::Network)
   // Camera model fitted to the predicted rays ("PINHOLE", "OPENCV_FISHEYE", ...); "auto": the
   // given camera's model, else chosen from the predicted field of view; "": no fit.
   std::string fit_model = "auto";
@@ -101,6 +108,7 @@ class Model {
   const std::string& format() const;  // "omnipoint" or "moge2"
   at::Device device() const;
   int64_t default_num_tokens() const;
+  const infer::Network& network() const;  // the loaded network (omnipoint/infer/infer.h)
 
   struct Impl;
 

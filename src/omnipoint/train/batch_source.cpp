@@ -18,8 +18,6 @@
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/teacher.h"
-#include "omnipoint/io/safetensors.h"
-#include "omnipoint/model/omnipoint_weights.h"
 
 namespace omnipoint::train {
 namespace {
@@ -96,18 +94,13 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     folders_.push_back(std::move(folders));
   }
   if (config_.a2p) {
-    model::OmniPointModel teacher{nullptr};
+    const int64_t tokens =
+        config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
     try {
-      const io::SafetensorsFile file = io::read_safetensors(config_.a2p_teacher);
-      teacher = model::load_omnipoint_model(file.tensors, file.metadata);
+      teacher_ = infer::teacher(infer::load_network(config_.a2p_teacher), tokens);
     } catch (const std::exception& error) {
       throw std::runtime_error("A2P teacher \"" + config_.a2p_teacher + "\": " + error.what());
     }
-    teacher->eval();
-    for (at::Tensor& parameter : teacher->parameters()) parameter.set_requires_grad(false);
-    const int64_t tokens =
-        config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
-    teacher_ = infer::omnipoint_teacher(teacher, tokens);
   }
 }
 

@@ -81,7 +81,7 @@ struct TrainConfig {
   bool p2a = false, a2p = false;
   double p2a_probability = 0.02;   // share of perspective items rendered into a virtual wide camera
   double a2p_probability = 1.0;    // share of wide-FoV items whose labels are replaced by A2P's
-  std::string a2p_teacher;         // OmniPoint checkpoint that pseudo-labels the A2P views
+  std::string a2p_teacher;         // checkpoint (OmniPoint or MoGe-2) pseudo-labelling A2P views
   int64_t a2p_teacher_tokens = 0;  // the teacher's token budget; 0: num_tokens' maximum
 
   LossConfig loss;
