@@ -4,26 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <functional>
 #include <stdexcept>
 
 #include "omnipoint/camera/camera.h"
+#include "support/expect_error.h"
 
 namespace omnipoint::camera {
 namespace {
 
-// Expects `action` to throw E whose message contains every one of `parts`.
-template <typename E>
-void expect_error(const std::function<void()>& action, const std::vector<std::string>& parts) {
-  try {
-    action();
-    ADD_FAILURE() << "no exception; expected one mentioning " << parts.front();
-  } catch (const E& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
-    for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << message;
-  }
-}
+using test::expect_error;
 
 void expect_bad_spec(const std::string& spec, const std::vector<std::string>& parts) {
   expect_error<std::invalid_argument>([&] { parse_camera(spec); }, parts);

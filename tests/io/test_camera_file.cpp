@@ -5,27 +5,16 @@
 
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <stdexcept>
 
 #include "omnipoint/io/camera_file.h"
+#include "support/expect_error.h"
 
 namespace omnipoint::io {
 namespace {
 namespace fs = std::filesystem;
 
-// Expects `action` to throw E whose message is one line containing every one of `parts`.
-template <typename E>
-void expect_error(const std::function<void()>& action, const std::vector<std::string>& parts) {
-  try {
-    action();
-    ADD_FAILURE() << "no exception; expected one mentioning " << parts.front();
-  } catch (const E& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
-    for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << message;
-  }
-}
+using test::expect_error;
 
 void expect_bad_spec(const std::string& spec, const std::vector<std::string>& parts) {
   expect_error<std::invalid_argument>([&] { read_camera(spec); }, parts);
