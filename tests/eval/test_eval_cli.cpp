@@ -5,7 +5,6 @@
 
 #include <ATen/ATen.h>
 #include <sys/wait.h>
-#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include <cstdlib>
@@ -38,13 +37,7 @@ std::vector<std::string> lines_of(const std::string& text) {
 }
 
 const fs::path& work_dir() {
-  static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / ("omnipoint_eval_cli_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
+  static const fs::path dir = omnipoint::test::fresh_process_dir("omnipoint_eval_cli");
   return dir;
 }
 

@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <ATen/ATen.h>
-#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -27,13 +26,7 @@ namespace fs = std::filesystem;
 using omnipoint::test::CliRun;
 
 const fs::path& work_dir() {
-  static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / ("omnipoint_one_path_cli_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
+  static const fs::path dir = omnipoint::test::fresh_process_dir("omnipoint_one_path_cli");
   return dir;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Running the built `omnipoint` binary (the OMNIPOINT_CLI macro) from end-to-end tests.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -20,6 +21,15 @@ inline std::string slurp(const std::filesystem::path& path) {
   std::stringstream text;
   text << file.rdbuf();
   return text.str();
+}
+
+// An empty folder NAME_<pid> under the temporary directory, made anew (one per test process).
+inline std::filesystem::path fresh_process_dir(const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
 }
 
 // Runs `omnipoint ARGS`, its stdout and stderr captured through files in `scratch`.
