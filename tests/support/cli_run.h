@@ -25,7 +25,7 @@ inline std::string slurp(const std::filesystem::path& path) {
 
 // An empty folder NAME_<pid> under the temporary directory, made anew (one per test process).
 inline std::filesystem::path fresh_process_dir(const std::string& name) {
-  const std::filesystem::path dir =
+  std::filesystem::path dir =
       std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);

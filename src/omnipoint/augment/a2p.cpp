@@ -56,7 +56,7 @@ PerspectiveView sample_perspective_view(const camera::Camera& wide, const A2PVie
         aspect >= 1 ? long_side : std::max<int64_t>(8, std::llround(long_side * aspect));
     const int64_t height =
         aspect >= 1 ? std::max<int64_t>(8, std::llround(long_side / aspect)) : long_side;
-    const PerspectiveView view =
+    PerspectiveView view =
         make_perspective_view(fov, uniform(generator, -180, 180),
                               uniform(generator, -d.max_pitch_deg, d.max_pitch_deg), width, height);
     if (sees_axis(wide, view)) return view;
@@ -137,6 +137,7 @@ std::vector<PerspectiveView> tiling_views(const camera::Camera& wide,
         "tiling_views: need 0 < fov < 180 degrees and a view size of at least 8");
   }
   std::vector<std::pair<double, double>> directions;  // (yaw, pitch)
+  directions.reserve(18);
   for (int i = 0; i < 8; ++i) directions.emplace_back(-180.0 + 45.0 * i, 0.0);
   for (double pitch : {60.0, -60.0}) {
     for (int i = 0; i < 4; ++i) directions.emplace_back(-135.0 + 90.0 * i, pitch);

@@ -54,6 +54,7 @@ int64_t run_bucketed(const std::vector<at::Tensor>& tensors, int64_t bucket_byte
       continue;
     }
     std::vector<at::Tensor> flat_parts;
+    flat_parts.reserve(bucket.size());
     for (size_t i : bucket) flat_parts.push_back(tensors[i].reshape(-1));
     at::Tensor flat = at::cat(flat_parts);
     collective(flat);
@@ -222,6 +223,7 @@ void DistributedContext::all_reduce_gradients(const std::vector<at::Tensor>& par
   if (!active()) return;
   // Which ranks have each gradient: one small all-reduce of flags.
   std::vector<float> defined;
+  defined.reserve(parameters.size());
   for (const at::Tensor& parameter : parameters)
     defined.push_back(parameter.grad().defined() ? 1.0f : 0.0f);
   at::Tensor has_gradient = at::tensor(defined, at::kFloat);
@@ -254,6 +256,7 @@ std::vector<double> DistributedContext::all_reduce_mean(const std::vector<double
 std::map<std::string, double> DistributedContext::all_reduce_mean(
     const std::map<std::string, double>& values) const {
   std::vector<double> flat;
+  flat.reserve(values.size());
   for (const auto& [name, value] : values) flat.push_back(value);
   flat = all_reduce_mean(flat);
   std::map<std::string, double> means;

@@ -48,7 +48,7 @@ struct DistributedOptions {
   // Rendezvous and every collective fail with std::runtime_error after this long.
   std::chrono::milliseconds timeout = std::chrono::minutes(5);
   // Gradients are all-reduced in flat buckets of about this many bytes (PyTorch DDP's 25 MB).
-  int64_t bucket_bytes = 25 * 1024 * 1024;
+  int64_t bucket_bytes = int64_t{25} * 1024 * 1024;
   // NCCL for CUDA tensors (only where LibTorch has it, else std::invalid_argument); Gloo otherwise.
   bool cuda = false;
 };

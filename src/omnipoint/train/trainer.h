@@ -43,6 +43,7 @@ struct StepRecord {
 };
 
 // Everything an exact resume needs. Tensors are CPU copies.
+// NOLINTNEXTLINE(bugprone-exception-escape): the implicit moves are those of std::map and json.
 struct TrainState {
   std::map<std::string, at::Tensor> model;  // state_dict names
   std::map<std::string, at::Tensor> ema;    // the same names
