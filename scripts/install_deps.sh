@@ -3,9 +3,10 @@
 set -euo pipefail
 
 # libgloo-dev: the gloo headers that c10d's ProcessGroupGloo.hpp includes (Gloo itself is in libtorch_cpu).
+# liblzf-dev: LZF for binary_compressed .pcd point clouds.
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev libgloo-dev)
+          libopencv-dev libgloo-dev liblzf-dev)
 if [[ "${1:-}" == "--tests" ]]; then
   # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/.
   packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy)

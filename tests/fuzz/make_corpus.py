@@ -71,6 +71,125 @@ def js(value):
     return json.dumps(value, indent=1).encode()
 
 
+def lzf_literals(data):
+    """LZF data of literal runs only (a control byte n < 32, then n + 1 bytes)."""
+    return b"".join(bytes([len(data[i:i + 32]) - 1]) + data[i:i + 32] for i in range(0, len(data), 32))
+
+
+def pcd_header(fields, sizes, types, counts, points, data, viewpoint="0 0 0 1 0 0 0"):
+    lines = ["# .PCD v0.7 - Point Cloud Data file format", "VERSION 0.7", "FIELDS " + " ".join(fields),
+             "SIZE " + " ".join(map(str, sizes)), "TYPE " + " ".join(types)]
+    if counts:
+        lines.append("COUNT " + " ".join(map(str, counts)))
+    lines += ["WIDTH %d" % points, "HEIGHT 1"]
+    if viewpoint:
+        lines.append("VIEWPOINT " + viewpoint)
+    lines += ["POINTS %d" % points, "DATA " + data]
+    return ("\n".join(lines) + "\n").encode()
+
+
+XYZ_RGB = (["x", "y", "z", "rgb"], [4, 4, 4, 4], ["F", "F", "F", "U"], [1, 1, 1, 1])
+PCD_POINTS = [(1.5, -2, 3, 0xff8000), (float("nan"), float("nan"), float("nan"), 0), (0, 0.25, -8, 7)]
+
+
+def pcd_binary(points=PCD_POINTS):
+    return pcd_header(*XYZ_RGB, len(points), "binary") + b"".join(struct.pack("<3fI", *p) for p in points)
+
+
+def pcd_compressed(points=PCD_POINTS, sizes=None):
+    data = b"".join(struct.pack("<%d%s" % (len(points), t), *[p[i] for p in points]) for i, t in enumerate("fffI"))
+    compressed = lzf_literals(data)
+    sizes = sizes or (len(compressed), len(data))
+    return pcd_header(*XYZ_RGB, len(points), "binary_compressed") + struct.pack("<II", *sizes) + compressed
+
+
+PCD_ASCII = pcd_header(*XYZ_RGB, 3, "ascii") + b"1.5 -2 3 16744448\nnan nan nan 0\n0 0.25 -8 7\n"
+# Two points (1, 1, 1): six equal floats, one literal and one back reference of 20 bytes.
+PCD_BACKREF = (pcd_header(["x", "y", "z"], [4, 4, 4], ["F", "F", "F"], None, 2, "binary_compressed", None)
+               + struct.pack("<II", 8, 24) + b"\x03" + struct.pack("<f", 1) + b"\xe0\x0b\x03")
+PCD_TYPES = (pcd_header(["intensity", "x", "y", "z", "hist"], [1, 8, 2, 4, 4], ["U", "F", "I", "U", "F"],
+                        [1, 1, 1, 1, 3], 1, "binary", None)
+             + struct.pack("<BdhI3f", 9, -0.5, -3, 70000, 0, 1, 2))
+
+
+# COLMAP models as COLMAP writes them (src/colmap/scene/reconstruction_io_{text,binary}.cc).
+COLMAP_MODEL_IDS = {"SIMPLE_PINHOLE": 0, "PINHOLE": 1, "SIMPLE_RADIAL": 2, "RADIAL": 3, "OPENCV": 4,
+                    "OPENCV_FISHEYE": 5, "FULL_OPENCV": 6, "FOV": 7, "SIMPLE_RADIAL_FISHEYE": 8,
+                    "RADIAL_FISHEYE": 9, "THIN_PRISM_FISHEYE": 10, "RAD_TAN_THIN_PRISM_FISHEYE": 11,
+                    "SIMPLE_DIVISION": 12, "DIVISION": 13, "SIMPLE_FISHEYE": 14, "FISHEYE": 15, "EUCM": 16,
+                    "EQUIRECTANGULAR": 17}
+COLMAP_CAMERAS = [(1, "PINHOLE", 640, 480, [500, 510, 320, 240]),
+                  (2, "OPENCV", 320, 240, [250, 250, 160, 120, -0.1, 0.01, 0.001, -0.001]),
+                  (3, "EQUIRECTANGULAR", 64, 32, [64, 32])]
+H = 0.5 ** 0.5
+COLMAP_IMAGES = [(1, [H, 0, 0, H], [0.5, -0.5, 3], 1, "frames/one.jpg", [(345, 240, 7)]),
+                 (2, [1, 0, 0, 0], [0, 0, 0], 2, "two.png", [(10.5, 20.25, -1), (160, 120, 8)]),
+                 (3, [1, 0, 0, 0], [0, 0, 0], 3, "pano 1.jpg", [])]
+COLMAP_POINTS = [(7, [0.5, 0.25, 2], [255, 128, 0], 0.5, [(1, 0)]), (8, [0, 0, 4], [1, 2, 3], 1.25, [(2, 1)])]
+
+
+def colmap_cameras_txt(cameras=COLMAP_CAMERAS):
+    text = "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+    text += "# Number of cameras: %d\n" % len(cameras)
+    text += "".join("%d %s %d %d" % (i, m, w, h) + "".join(" %r" % p for p in params) + "\n"
+                    for i, m, w, h, params in cameras)
+    return text.encode()
+
+
+def colmap_images_txt(images=COLMAP_IMAGES):
+    text = ("# Image list with two lines of data per image:\n"
+            "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
+            "# Number of images: %d, mean observations per image: 1\n" % len(images))
+    for i, q, t, camera, name, observations in images:
+        text += " ".join(map(repr, [i] + q + t + [camera])) + " " + name + "\n"
+        text += " ".join("%r %r %d" % o for o in observations) + "\n"
+    return text.encode()
+
+
+def colmap_points_txt(points=COLMAP_POINTS):
+    text = ("# 3D point list with one line of data per point:\n"
+            "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+            "# Number of points: %d, mean track length: 1\n" % len(points))
+    for i, xyz, rgb, error, track in points:
+        text += " ".join(map(repr, [i] + xyz + rgb + [error])) + " " + " ".join("%d %d" % e for e in track) + "\n"
+    return text.encode()
+
+
+def colmap_cameras_bin(cameras=COLMAP_CAMERAS, model_id=None):
+    data = struct.pack("<Q", len(cameras))
+    for i, m, w, h, params in cameras:
+        data += struct.pack("<IiQQ", i, COLMAP_MODEL_IDS[m] if model_id is None else model_id, w, h)
+        data += struct.pack("<%dd" % len(params), *params)
+    return data
+
+
+def colmap_images_bin(images=COLMAP_IMAGES, count=None):
+    data = struct.pack("<Q", len(images) if count is None else count)
+    for i, q, t, camera, name, observations in images:
+        data += struct.pack("<I7dI", i, *q, *t, camera) + name.encode() + b"\x00"
+        data += struct.pack("<Q", len(observations))
+        data += b"".join(struct.pack("<2dQ", x, y, p % (1 << 64)) for x, y, p in observations)
+    return data
+
+
+def colmap_points_bin(points=COLMAP_POINTS, count=None):
+    data = struct.pack("<Q", len(points) if count is None else count)
+    for i, xyz, rgb, error, track in points:
+        data += struct.pack("<Q3d3BdQ", i, *xyz, *rgb, error, len(track))
+        data += b"".join(struct.pack("<II", *e) for e in track)
+    return data
+
+
+KITTI_RAW = (b"calib_time: 15-Mar-2012 11:37:16\n"
+             b"R: 7.533745e-03 -9.999714e-01 -6.166020e-04 1.480249e-02 7.280733e-04 -9.998902e-01 "
+             b"9.998621e-01 7.523790e-03 1.480755e-02\nT: -4.069766e-03 -7.631618e-02 -2.717806e-01\n"
+             b"delta_f: 0.000000e+00 0.000000e+00\ndelta_c: 0.000000e+00 0.000000e+00\n")
+KITTI_ODOMETRY = b"".join(b"P%d: 7.188560e+02 0 6.071928e+02 0 0 7.188560e+02 1.852157e+02 0 0 0 1 0\n" % i
+                          for i in range(4)) + b"Tr: 4.2768e-04 -9.9997e-01 -8.0844e-03 -1.1984e-02 " \
+                          b"-7.2106e-03 8.0811e-03 -9.9994e-01 -5.4039e-02 9.9997e-01 4.8594e-04 -7.2069e-03 " \
+                          b"-2.9219e-01\n"
+
+
 MINIMAL_TRAIN = {"model": {}, "data": {"datasets": [{"synth": {"cameras": ["PINHOLE 56 56 50 50 28 28"]}}]},
                  "stages": [{"stage": 1, "steps": 10}]}
 FULL_TRAIN = {
@@ -130,9 +249,28 @@ SEEDS = {
                             + struct.pack("<bbhHiIdfBHf", -1, 2, -3, 4, -5, 6, 0.5, 1.5, 7, 8, 2.5),
     "ply/empty.ply": b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
                      b"property float z\nend_header\n",
-    "kitti_bin/one.bin": f32(1, 2, 3, 0.5),
-    "kitti_bin/three.bin": f32(1, 2, 3, 0.5, -4, 5.5, 0, 1, 1e3, -1e-3, 2, 0),
+    "lidar_bin/one.bin": f32(1, 2, 3, 0.5),
+    "lidar_bin/three.bin": f32(1, 2, 3, 0.5, -4, 5.5, 0, 1, 1e3, -1e-3, 2, 0),
+    "lidar_bin/nuscenes_four.bin": f32(*range(20)),
+    "pcd/ascii.pcd": PCD_ASCII,
+    "pcd/binary.pcd": pcd_binary(),
+    "pcd/binary_compressed.pcd": pcd_compressed(),
+    "pcd/backref.pcd": PCD_BACKREF,
+    "pcd/types.pcd": PCD_TYPES,
+    "pcd/empty.pcd": pcd_header(*XYZ_RGB, 0, "binary"),
+    "colmap/cameras.txt": colmap_cameras_txt(),
+    "colmap/cameras.bin": colmap_cameras_bin(),
+    "colmap/cameras_models.txt": b"1 SIMPLE_PINHOLE 64 48 50 32 24\n2 SIMPLE_RADIAL 64 48 50 32 24 0.1\n"
+                                 b"3 RADIAL 64 48 50 32 24 0.1 0.01\n4 FULL_OPENCV 64 48 50 50 32 24 0 0 0 0 0 0 0 0\n"
+                                 b"5 FOV 64 48 50 50 32 24 0.9\n6 OPENCV_FISHEYE 64 48 50 50 32 24 0 0 0 0\n"
+                                 b"7 EUCM 64 48 50 50 32 24 0.5 1\n8 EQUIRECTANGULAR 64 32\n",
+    "colmap/images.txt": colmap_images_txt(),
+    "colmap/images.bin": colmap_images_bin(),
+    "colmap/points3D.txt": colmap_points_txt(),
+    "colmap/points3D.bin": colmap_points_bin(),
     "rigid_transform/identity.txt": IDENTITY_4X4,
+    "rigid_transform/kitti_raw.txt": KITTI_RAW,
+    "rigid_transform/kitti_odometry.txt": KITTI_ODOMETRY,
     "rigid_transform/kitti_3x4.txt": b"7.5e-03,-9.9e-01,-6.1e-04,-4.0e-03,1.4e-02,7.2e-04,-9.9e-01,-7.6e-02,"
                                      b"9.9e-01,7.5e-03,1.4e-02,-2.7e-01\n",
     "rigid_transform/tabs.txt": b"\t1\t0\t0\t0.5\n 0 1 0 -0.25\n0 0 1 +1.0\n0 0 0 1",
@@ -224,10 +362,41 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "ply/no_end_header.ply": (b"ply\nformat ascii 1.0\nelement vertex 0\n", "no end_header line"),
     "ply/huge_count.ply": (b"ply\nformat ascii 1.0\nelement vertex 999999999999\nproperty float x\n"
                            b"property float y\nproperty float z\nend_header\n1 2 3\n", "999999999999 vertices declared"),
-    "kitti_bin/five_bytes.bin": (b"12345", "5 bytes is not a multiple of 16"),
-    "kitti_bin/empty.bin": (b"", "0 bytes is not a multiple of 16"),
-    "kitti_bin/twenty.bin": (f32(1, 2, 3, 4, 5), "20 bytes is not a multiple of 16"),
+    "lidar_bin/five_bytes.bin": (b"12345", "5 bytes is not a multiple of 16"),
+    "lidar_bin/empty.bin": (b"", "the .bin scan is empty"),
+    "lidar_bin/twenty.bin": (f32(1, 2, 3, 4, 5), "20 bytes is not a multiple of 16 (4 float32 per point, x, y, z "
+                             "first); would fit: --lidar-format nuscenes (20 bytes per point)"),
+    "pcd/no_data.pcd": (pcd_header(*XYZ_RGB, 3, "ascii").replace(b"DATA ascii\n", b""),
+                        "no DATA line in the first 64 KiB"),
+    "pcd/viewpoint.pcd": (pcd_header(*XYZ_RGB, 0, "ascii", "0 0 0 0.7071 0.7071 0 0"), "VIEWPOINT is not the identity"),
+    "pcd/truncated.pcd": (pcd_binary()[:-1], "3 POINTS of 16 bytes do not fit in the file (47 bytes)"),
+    "pcd/ascii_short.pcd": (PCD_ASCII[:-12], "truncated: 2 data lines for 3 POINTS"),
+    "pcd/compressed_size.pcd": (pcd_compressed(sizes=(99, 48)), "compressed size 99 but"),
+    "pcd/uncompressed_size.pcd": (pcd_compressed(sizes=(len(lzf_literals(bytes(48))), 47)),
+                                  "uncompressed size 47 (the 3 POINTS need 48)"),
+    "pcd/huge_points.pcd": (pcd_header(*XYZ_RGB, 1 << 30, "binary_compressed") + struct.pack("<II", 2, 1 << 31) + b"\x00\x00",
+                            "1073741824 POINTS of 16 bytes do not fit in LZF data (180 bytes)"),
+    "pcd/count_x.pcd": (pcd_header(["x", "y", "z"], [4, 4, 4], ["F", "F", "F"], [2, 1, 1], 0, "binary"),
+                        "the field x has COUNT 2 (expected 1)"),
+    "pcd/type.pcd": (pcd_header(["x", "y", "z"], [4, 4, 4], ["F", "F", "D"], None, 0, "binary"),
+                     "field z has TYPE D SIZE 4"),
+    "colmap/cameras_unknown_id.bin": (colmap_cameras_bin(model_id=42), "unknown COLMAP camera model id 42"),
+    "colmap/cameras_fisheye.txt": (b"1 FISHEYE 64 48 50 50 32 24\n", "COLMAP's camera model FISHEYE is not supported"),
+    "colmap/cameras_params.txt": (b"1 PINHOLE 64 48 50 50 32\n", "PINHOLE expects 4 parameters"),
+    "colmap/cameras_truncated.bin": (colmap_cameras_bin()[:-3], "truncated: camera 3's parameter 1"),
+    "colmap/images_truncated.bin": (colmap_images_bin()[:-5], "truncated: the number of image 3's points2D"),
+    "colmap/images_count.bin": (colmap_images_bin(count=1 << 62), "4611686018427387904 images declared at byte 0"),
+    "colmap/images_quaternion.txt": (b"1 0 0 0 0 0 0 0 1 a.jpg\n\n", "image 1: the quaternion is zero or not finite"),
+    "colmap/images_no_points.txt": (b"1 1 0 0 0 0 0 0 1 a.jpg\n", "image 1 has no POINTS2D line"),
+    "colmap/images_pairs.txt": (b"1 1 0 0 0 0 0 0 1 a.jpg\n1 2 3 4\n", "POINTS2D holds 4 values"),
+    "colmap/points3D_count.bin": (colmap_points_bin(count=1 << 40), "1099511627776 points declared"),
+    "colmap/points3D_colour.txt": (b"1 0 0 1 1 2 300 0\n", "colour 300 is not 0..255"),
+    "colmap/points3D_twice.txt": (b"1 0 0 1 1 2 3 0\n1 0 0 1 1 2 3 0\n", "the point id 1 appears twice"),
     "rigid_transform/nine.txt": (b"1 0 0 0 1 0 0 0 1", "expected 16 numbers (4x4) or 12 (3x4), got 9"),
+    "rigid_transform/kitti_no_t.txt": (KITTI_RAW.replace(b"T:", b"t:"), "needs T (raw calib_velo_to_cam.txt) or Tr"),
+    "rigid_transform/kitti_r_count.txt": (b"R: 1 0 0 0 1 0 0 0\nT: 0 0 0\n", "R: expected 9 numbers, got 8"),
+    "rigid_transform/kitti_twice.txt": (KITTI_ODOMETRY + b"Tr: 1\n", "the key Tr appears twice"),
+    "rigid_transform/kitti_line.txt": (b"R: 1 0 0 0 1 0 0 0 1\nT 0 0 0\n", "is not \"KEY: values\""),
     "rigid_transform/word.txt": (b"1 0 0 x0\n", "\"x0\" is not a number"),
     "rigid_transform/nan.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"nan 0 0 0\n", 1), "expected a finite 4x4"),
     "rigid_transform/overflow.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"1e999 0 0 0\n", 1),

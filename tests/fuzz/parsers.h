@@ -5,6 +5,7 @@
 // both feed the same bytes to the same calls.
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,7 +14,9 @@
 #include "omnipoint/data/moge_format.h"
 #include "omnipoint/data/png_text.h"
 #include "omnipoint/data/sample.h"
+#include "omnipoint/io/colmap.h"
 #include "omnipoint/io/npy.h"
+#include "omnipoint/io/pcd.h"
 #include "omnipoint/io/ply.h"
 #include "omnipoint/io/point_cloud.h"
 #include "omnipoint/io/safetensors.h"
@@ -79,9 +82,55 @@ inline Parser npy_parser() {
 inline Parser ply_parser() {
   return {"ply", [](const std::string& b, const std::string& s) { io::parse_ply(b, s); }};
 }
-inline Parser kitti_bin_parser() {
-  return {"kitti_bin",
-          [](const std::string& b, const std::string& s) { io::parse_kitti_bin(b, s); }};
+// A .bin scan as KITTI's 4 floats per point; also as nuScenes' 5 and as 3, and the same bytes
+// as a --lidar-format value.
+inline Parser lidar_bin_parser() {
+  return {"lidar_bin",
+          [](const std::string& b, const std::string& s) { io::parse_lidar_bin(b, s, 4); },
+          [](const std::string& b, const std::string& s) {
+            within_contract([&] { io::parse_lidar_bin(b, s, 5); });
+            within_contract([&] { io::parse_lidar_bin(b, s, 3); });
+            within_contract([&] { io::lidar_floats_per_point(b); });
+          }};
+}
+inline Parser pcd_parser() {
+  return {"pcd", [](const std::string& b, const std::string& s) { io::parse_pcd(b, s); }};
+}
+// COLMAP's cameras, images and points3D files, text and binary. The checked entry picks the
+// parser by the file's name (cameras*.txt, images*.bin, points3D*.txt, ...) and refuses other
+// names, the fuzzer's too; all six parsers are driven with the same bytes.
+inline void parse_colmap_file(const std::string& b, const std::string& s) {
+  const std::filesystem::path path(s);
+  const std::string file = path.filename().string(), extension = path.extension().string();
+  const auto named = [&](const char* stem, const char* ext) {
+    return file.rfind(stem, 0) == 0 && extension == ext;
+  };
+  if (named("cameras", ".txt"))
+    io::parse_colmap_cameras_text(b, s);
+  else if (named("cameras", ".bin"))
+    io::parse_colmap_cameras_binary(b, s);
+  else if (named("images", ".txt"))
+    io::parse_colmap_images_text(b, s);
+  else if (named("images", ".bin"))
+    io::parse_colmap_images_binary(b, s);
+  else if (named("points3D", ".txt"))
+    io::parse_colmap_points_text(b, s);
+  else if (named("points3D", ".bin"))
+    io::parse_colmap_points_binary(b, s);
+  else
+    throw std::invalid_argument(s +
+                                ": not a COLMAP file name (cameras, images or points3D; "
+                                ".txt or .bin)");
+}
+inline Parser colmap_parser() {
+  return {"colmap", parse_colmap_file, [](const std::string& b, const std::string& s) {
+            within_contract([&] { io::parse_colmap_cameras_text(b, s); });
+            within_contract([&] { io::parse_colmap_cameras_binary(b, s); });
+            within_contract([&] { io::parse_colmap_images_text(b, s); });
+            within_contract([&] { io::parse_colmap_images_binary(b, s); });
+            within_contract([&] { io::parse_colmap_points_text(b, s); });
+            within_contract([&] { io::parse_colmap_points_binary(b, s); });
+          }};
 }
 inline Parser rigid_transform_parser() {
   return {"rigid_transform",
@@ -125,9 +174,10 @@ inline Parser sample_meta_parser() {
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
   static const std::vector<Parser> table = {
-      safetensors_parser(),     npy_parser(),        ply_parser(),          kitti_bin_parser(),
-      rigid_transform_parser(), camera_parser(),     train_config_parser(), png_text_parser(),
-      moge_meta_parser(),       sample_meta_parser()};
+      safetensors_parser(),     npy_parser(),       ply_parser(),
+      lidar_bin_parser(),       pcd_parser(),       colmap_parser(),
+      rigid_transform_parser(), camera_parser(),    train_config_parser(),
+      png_text_parser(),        moge_meta_parser(), sample_meta_parser()};
   return table;
 }
 

@@ -3,7 +3,9 @@
 #include <ATen/ATen.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstring>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -26,25 +28,26 @@ at::Tensor checked_transform(at::Tensor matrix, const std::string& name) {
   return matrix;
 }
 
-}  // namespace
+// Counts of floats per point the layout option accepts (lidar_floats_per_point).
+constexpr int64_t kMaxFloatsPerPoint = 1024;
 
-at::Tensor parse_kitti_bin(const std::string& bytes, const std::string& name) {
-  constexpr size_t kRecord = 4 * sizeof(float);
-  if (bytes.empty() || bytes.size() % kRecord != 0)
-    throw std::invalid_argument("sparse depth " + name +
-                                ": a KITTI .bin holds float32 x, y, z, intensity records (" +
-                                std::to_string(bytes.size()) + " bytes is not a multiple of 16)");
-  const int64_t count = static_cast<int64_t>(bytes.size() / kRecord);
-  at::Tensor records = at::empty({count, 4}, at::kFloat);
-  std::memcpy(records.data_ptr<float>(), bytes.data(), bytes.size());
-  return records.slice(1, 0, 3).contiguous();
+// For a .bin of `size` bytes that is no whole number of records: the layouts it would fit,
+// as "; would fit: --lidar-format nuscenes (20 bytes per point)", float counts 3..8.
+std::string layouts_fitting(size_t size) {
+  std::string fitting;
+  for (int64_t floats = 3; floats <= 8; ++floats) {
+    if (size % (floats * sizeof(float)) != 0) continue;
+    const std::string layout = floats == 4   ? "kitti"
+                               : floats == 5 ? "nuscenes"
+                                             : std::to_string(floats);
+    fitting += (fitting.empty() ? "" : ", ") + ("--lidar-format " + layout) + " (" +
+               std::to_string(floats * sizeof(float)) + " bytes per point)";
+  }
+  return fitting.empty() ? "" : "; would fit: " + fitting;
 }
 
-at::Tensor read_kitti_bin(const std::string& path) {
-  return parse_kitti_bin(read_file(path), path);
-}
-
-at::Tensor parse_rigid_transform(const std::string& text, const std::string& name) {
+// The numbers of a plain matrix file, separated by whitespace or commas.
+std::vector<double> numbers_in(const std::string& text, const std::string& name) {
   std::string spaced = text;
   std::replace(spaced.begin(), spaced.end(), ',', ' ');
   std::istringstream stream(spaced);
@@ -60,6 +63,108 @@ at::Tensor parse_rigid_transform(const std::string& text, const std::string& nam
                                   "\" is not a number");
     }
   }
+  return values;
+}
+
+// Whether the text is a KITTI calibration file: lines "KEY: values" rather than bare numbers.
+bool is_keyed(const std::string& text) {
+  std::istringstream stream(text);
+  std::string first;
+  stream >> first;
+  return !first.empty() && first.back() == ':';
+}
+
+// The transform of a KITTI calibration file: "Tr: 12 numbers" (odometry) or "R: 9" and
+// "T: 3" (raw); every other key is ignored.
+at::Tensor keyed_transform(const std::string& text, const std::string& name) {
+  std::map<std::string, std::vector<double>> wanted;  // R, T, Tr -> their numbers
+  std::vector<std::string> keys;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const size_t colon = line.find(':');
+    std::istringstream words(line.substr(0, colon));
+    std::string key, extra;
+    words >> key;
+    if (key.empty() && colon == std::string::npos) continue;
+    if (colon == std::string::npos || key.empty() || (words >> extra))
+      throw std::invalid_argument("camera-from-LiDAR " + name + ": the line \"" + line +
+                                  "\" is not \"KEY: values\" (a KITTI calibration file)");
+    if (std::find(keys.begin(), keys.end(), key) != keys.end())
+      throw std::invalid_argument("camera-from-LiDAR " + name + ": the key " + key +
+                                  " appears twice");
+    keys.push_back(key);
+    if (key == "R" || key == "T" || key == "Tr")
+      wanted[key] = numbers_in(line.substr(colon + 1), name + " " + key);
+  }
+  const auto numbers = [&](const std::string& key, size_t expected) {
+    const std::vector<double>& values = wanted.at(key);
+    if (values.size() != expected)
+      throw std::invalid_argument("camera-from-LiDAR " + name + ": " + key + ": expected " +
+                                  std::to_string(expected) + " numbers, got " +
+                                  std::to_string(values.size()));
+    return at::tensor(values, at::kDouble);
+  };
+  if (wanted.count("Tr")) return numbers("Tr", 12).view({3, 4});
+  if (wanted.count("R") && wanted.count("T"))
+    return at::cat({numbers("R", 9).view({3, 3}), numbers("T", 3).view({3, 1})}, 1);
+  std::string found;
+  for (const std::string& key : keys) found += (found.empty() ? "" : ", ") + key;
+  const std::string missing = wanted.count("R") ? "T" : wanted.count("T") ? "R" : "R and T";
+  throw std::invalid_argument("camera-from-LiDAR " + name + ": a KITTI calibration file needs " +
+                              missing +
+                              " (raw calib_velo_to_cam.txt) or Tr (odometry calib.txt); "
+                              "found " +
+                              found);
+}
+
+}  // namespace
+
+int64_t lidar_floats_per_point(const std::string& format) {
+  if (format == "kitti") return 4;
+  if (format == "nuscenes") return 5;
+  int64_t count = 0;
+  const char* end = format.data() + format.size();
+  const auto [stop, error] = std::from_chars(format.data(), end, count);
+  if (error != std::errc() || stop != end || count < 3 || count > kMaxFloatsPerPoint)
+    throw std::invalid_argument("LiDAR format '" + format +
+                                "': expected kitti (4 floats per point), nuscenes (5) or a "
+                                "float count 3.." +
+                                std::to_string(kMaxFloatsPerPoint));
+  return count;
+}
+
+at::Tensor parse_lidar_bin(const std::string& bytes, const std::string& name,
+                           int64_t floats_per_point) {
+  if (floats_per_point < 3 || floats_per_point > kMaxFloatsPerPoint)
+    throw std::invalid_argument("sparse depth " + name + ": " + std::to_string(floats_per_point) +
+                                " floats per point (expected 3.." +
+                                std::to_string(kMaxFloatsPerPoint) + ")");
+  const size_t record = static_cast<size_t>(floats_per_point) * sizeof(float);
+  if (bytes.empty())
+    throw std::invalid_argument("sparse depth " + name + ": the .bin scan is empty (0 bytes)");
+  if (bytes.size() % record != 0)
+    throw std::invalid_argument("sparse depth " + name + ": " + std::to_string(bytes.size()) +
+                                " bytes is not a multiple of " + std::to_string(record) + " (" +
+                                std::to_string(floats_per_point) +
+                                " float32 per point, x, y, z first)" +
+                                layouts_fitting(bytes.size()));
+  const int64_t count = static_cast<int64_t>(bytes.size() / record);
+  at::Tensor records = at::empty({count, floats_per_point}, at::kFloat);
+  std::memcpy(records.data_ptr<float>(), bytes.data(), bytes.size());
+  return records.slice(1, 0, 3).contiguous();
+}
+
+at::Tensor read_lidar_bin(const std::string& path, int64_t floats_per_point) {
+  return parse_lidar_bin(read_file(path), path, floats_per_point);
+}
+
+at::Tensor read_kitti_bin(const std::string& path) {
+  return read_lidar_bin(path, 4);
+}
+
+at::Tensor parse_rigid_transform(const std::string& text, const std::string& name) {
+  if (is_keyed(text)) return checked_transform(keyed_transform(text, name), name);
+  const std::vector<double> values = numbers_in(text, name);
   if (values.size() != 12 && values.size() != 16)
     throw std::invalid_argument("camera-from-LiDAR " + name +
                                 ": expected 16 numbers (4x4) or 12 (3x4), got " +
