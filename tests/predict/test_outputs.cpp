@@ -8,10 +8,15 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <set>
+#include <stdexcept>
+#include <string>
 
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/fit.h"
 #include "omnipoint/data/synth/synthesize.h"
+#include "omnipoint/geometry/grid_surface.h"
+#include "omnipoint/geometry/points.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/glb.h"
 #include "omnipoint/io/image.h"
@@ -80,12 +85,29 @@ TEST(PredictOutputs, OracleFilesRoundTrip) {
                 .item<float>(),
             0.0006);
   EXPECT_TRUE(at::equal(io::read_image_values((folder / "mask.png").string()) > 0, mask));
+  // distance.png in 1/256 m, within half a unit; normals.npy the point map's normals.
+  const at::Tensor distance_units = io::read_image_values((folder / "distance.png").string());
+  EXPECT_LE((distance_units.masked_select(mask) / 256 - synth.sample.distance.masked_select(mask))
+                .abs()
+                .max()
+                .item<float>(),
+            0.5 / 256 + 1e-6);
+  EXPECT_TRUE(at::equal(io::read_npy((folder / "normals.npy").string()),
+                        geometry::normals_from_point_map(p.points, p.mask).normals));
   EXPECT_EQ(io::read_image((folder / "preview.png").string()).size(2), 3);
   EXPECT_EQ(io::read_image((folder / "depth_vis.png").string()).sizes(),
             synth.sample.image.sizes());
   const auto json = nlohmann::json::parse(io::read_file((folder / "camera.json").string()));
   EXPECT_EQ(json["valid_pixels"].get<int64_t>(), mask.sum().item<int64_t>());
   EXPECT_TRUE(json["timing_ms"].contains("writing"));
+  // The default files, each timed; no mesh unless asked for.
+  const std::set<std::string> files = default_output_files();
+  EXPECT_EQ(json["files"].get<std::set<std::string>>(), files);
+  EXPECT_EQ(files.count("mesh.glb"), 0u);
+  for (const std::string& file : files) {
+    EXPECT_TRUE(fs::is_regular_file(folder / file)) << file;
+    EXPECT_EQ(json["timing_ms"]["files"].contains(file), file != "camera.json") << file;
+  }
   // No staging folder left beside the output.
   for (const auto& entry : fs::directory_iterator(folder.parent_path()))
     EXPECT_EQ(entry.path().filename(), "sample");
@@ -145,6 +167,193 @@ TEST(PredictOutputs, FittedCameraRecoversTheCamera) {
             .masked_select(rays.valid);
     EXPECT_GT(angle_cos.min().item<double>(), std::cos(1e-4)) << spec;
   }
+}
+
+std::set<std::string> files_in(const fs::path& folder) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(folder)) names.insert(entry.path().filename());
+  return names;
+}
+
+nlohmann::json camera_json(const fs::path& folder) {
+  return nlohmann::json::parse(io::read_file((folder / "camera.json").string()));
+}
+
+TEST(OutputList, GroupsAndFileNames) {
+  using Files = std::set<std::string>;
+  EXPECT_EQ(parse_output_list("ply,mesh"), (Files{"camera.json", "mesh.glb", "points.ply"}));
+  EXPECT_EQ(parse_output_list("camera"), Files{"camera.json"});
+  EXPECT_EQ(parse_output_list("npy,depth.png"),
+            (Files{"camera.json", "depth.npy", "depth.png", "distance.npy", "normals.npy",
+                   "points.npy", "rays.npy"}));
+  EXPECT_EQ(parse_output_list("depth,vis"),
+            (Files{"camera.json", "depth.png", "depth_vis.png", "distance.png"}));
+  const Files defaults = {"camera.json",  "depth.npy",    "depth.png",  "depth_vis.png",
+                          "distance.npy", "distance.png", "mask.png",   "normals.npy",
+                          "points.glb",   "points.npy",   "points.ply", "preview.png",
+                          "rays.npy"};
+  EXPECT_EQ(default_output_files(), defaults);
+  EXPECT_EQ(parse_output_list("default"), defaults);
+  Files all = defaults;
+  all.insert("mesh.glb");
+  EXPECT_EQ(parse_output_list("all"), all);
+  EXPECT_EQ(parse_output_list("png,glb"),
+            (Files{"camera.json", "depth.png", "depth_vis.png", "distance.png", "mask.png",
+                   "points.glb", "preview.png"}));
+}
+
+TEST(OutputList, BadNamesListTheValidOnes) {
+  const auto message = [](const std::string& list) {
+    try {
+      parse_output_list(list);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string unknown = message("ply,exr");
+  EXPECT_EQ(
+      unknown.rfind("outputs: unknown name \"exr\" in \"ply,exr\"; valid: ply, glb, npy, depth, "
+                    "mask, vis, preview, png, mesh, camera, default, all, or a file name "
+                    "(camera.json, depth.npy, ",
+                    0),
+      0u)
+      << unknown;
+  EXPECT_NE(unknown.find("rays.npy)"), std::string::npos) << unknown;
+  EXPECT_EQ(message("ply,,glb").rfind("outputs: an empty name in \"ply,,glb\"", 0), 0u);
+  EXPECT_EQ(message("").rfind("outputs: an empty name", 0), 0u);
+  // A hand-made OutputOptions with a name that is no file.
+  OutputOptions options;
+  options.files = {"points.exr"};
+  const Prediction p = prediction_from_geometry(at::zeros({2, 2, 3}), at::zeros({2, 2}),
+                                                at::zeros({2, 2}, at::kBool));
+  const fs::path folder = fresh_dir("bad_file") / "sample";
+  try {
+    write_prediction_outputs(folder.string(), at::zeros({2, 2, 3}), p, options);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "outputs: unknown file \"points.exr\"");
+  }
+  EXPECT_FALSE(fs::exists(folder));
+}
+
+// A pinhole 8x6 view of a step: 2 m in image columns 0..3, 3 m in columns 4..7.
+Prediction step_prediction() {
+  const camera::Rays rays = camera::parse_camera("PINHOLE 8 6 8 8 4 3").ray_map();
+  at::Tensor distance = at::full({6, 8}, 2.0f);
+  distance.slice(1, 4).fill_(3.0f);
+  return prediction_from_geometry(rays.rays, distance, rays.valid);
+}
+
+TEST(PredictOutputs, SelectionWritesExactlyTheChosenFiles) {
+  const Prediction p = step_prediction();
+  const at::Tensor image = at::rand({6, 8, 3});
+  for (const std::string list : {"ply,mesh", "camera", "npy,vis", "all"}) {
+    OutputOptions options;
+    options.files = parse_output_list(list);
+    const fs::path folder = fresh_dir("selection") / "sample";
+    write_prediction_outputs(folder.string(), image, p, options);
+    EXPECT_EQ(files_in(folder), options.files) << list;
+    const auto json = camera_json(folder);
+    EXPECT_EQ(json["files"].get<std::set<std::string>>(), options.files) << list;
+    std::set<std::string> timed;
+    for (const auto& [file, ms] : json["timing_ms"]["files"].items()) timed.insert(file);
+    std::set<std::string> expected_timed = options.files;
+    expected_timed.erase("camera.json");
+    EXPECT_EQ(timed, expected_timed) << list;
+    // The shared cloud only when a file needs it.
+    EXPECT_EQ(json["timing_ms"].contains("valid_points"),
+              options.files.count("points.ply") + options.files.count("preview.png") > 0)
+        << list;
+  }
+}
+
+// The PNGs' scales, and the valid pixels each cannot hold, counted in camera.json.
+TEST(PredictOutputs, DepthAndDistancePngsStateTheirRange) {
+  // Rays forward, forward, forward, backward, sideways and one invalid pixel.
+  const at::Tensor rays = at::tensor({0.f, 0.f, 1.f, 0.f, 0.f, 1.f, 0.f, 0.f, 1.f, 0.f, 0.f, -1.f,
+                                      1.f, 0.f, 0.f, 0.f, 0.f, 0.f})
+                              .view({2, 3, 3});
+  const at::Tensor distance = at::tensor({2.001f, 70.f, 300.f, 5.f, 3.f, 0.f}).view({2, 3});
+  const at::Tensor mask = at::tensor({1, 1, 1, 1, 1, 0}).view({2, 3}).to(at::kBool);
+  const Prediction p = prediction_from_geometry(rays, distance, mask);
+  OutputOptions options;
+  options.files = parse_output_list("depth");
+  const fs::path folder = fresh_dir("png_range") / "sample";
+  write_prediction_outputs(folder.string(), at::zeros({2, 3, 3}), p, options);
+
+  // depth.png: millimetres; 70 m and 300 m beyond 65.535 m, two pixels at z <= 0.
+  EXPECT_TRUE(at::equal(io::read_image_values((folder / "depth.png").string()),
+                        at::tensor({2001.f, 0.f, 0.f, 0.f, 0.f, 0.f}).view({2, 3})));
+  // distance.png: 1/256 m; only 300 m is beyond 255.996 m.
+  EXPECT_TRUE(at::equal(io::read_image_values((folder / "distance.png").string()),
+                        at::tensor({512.f, 17920.f, 0.f, 1280.f, 768.f, 0.f}).view({2, 3})));
+  const auto json = camera_json(folder);
+  EXPECT_EQ(json["depth_png"]["scale_m_per_unit"].get<double>(), 0.001);
+  EXPECT_DOUBLE_EQ(json["depth_png"]["max_m"].get<double>(), 65.535);
+  EXPECT_EQ(json["depth_png"]["behind_camera_pixels"].get<int64_t>(), 2);
+  EXPECT_EQ(json["depth_png"]["out_of_range_pixels"].get<int64_t>(), 2);
+  EXPECT_EQ(json["distance_png"]["scale_m_per_unit"].get<double>(), 1.0 / 256);
+  EXPECT_EQ(json["distance_png"]["max_m"].get<double>(), 65535.0 / 256);
+  EXPECT_EQ(json["distance_png"]["out_of_range_pixels"].get<int64_t>(), 1);
+}
+
+TEST(PredictOutputs, EdgeFilterRemovesTheStepAndSaysSo) {
+  const Prediction unfiltered = step_prediction();
+  Prediction p = unfiltered;
+  remove_depth_edges(p, 0);  // off
+  EXPECT_TRUE(at::equal(p.mask, unfiltered.mask));
+  EXPECT_EQ(p.edge_pixels_removed, 0);
+  remove_depth_edges(p, kDefaultEdgeRtol);
+  // Image columns 3 and 4 (both sides of the step) leave the mask, with their geometry.
+  at::Tensor expected = at::ones({6, 8}, at::kBool);
+  expected.slice(1, 3, 5).fill_(false);
+  EXPECT_TRUE(at::equal(p.mask, expected));
+  EXPECT_EQ(p.edge_pixels_removed, 12);
+  EXPECT_EQ(p.edge_rtol, kDefaultEdgeRtol);
+  EXPECT_EQ(p.points.masked_select(~expected.unsqueeze(-1)).abs().max().item<float>(), 0);
+  EXPECT_EQ(p.distance.masked_select(~expected).abs().max().item<float>(), 0);
+  EXPECT_EQ(p.depth.masked_select(~expected).abs().max().item<float>(), 0);
+  EXPECT_TRUE(
+      at::equal(p.distance.masked_select(expected), unfiltered.distance.masked_select(expected)));
+
+  // camera.json reports it; the mesh has 2 triangles per cell of columns 0..2 and 5..7.
+  OutputOptions options;
+  options.files = parse_output_list("mesh");
+  const fs::path folder = fresh_dir("edges") / "sample";
+  write_prediction_outputs(folder.string(), at::rand({6, 8, 3}), p, options);
+  auto json = camera_json(folder);
+  EXPECT_EQ(json["edge_filter"]["rtol"].get<double>(), kDefaultEdgeRtol);
+  EXPECT_EQ(json["edge_filter"]["removed_pixels"].get<int64_t>(), 12);
+  EXPECT_EQ(json["valid_pixels"].get<int64_t>(), 48 - 12);
+  EXPECT_EQ(json["mesh"]["triangles"].get<int64_t>(), 2 * 5 * (2 + 2));
+  EXPECT_EQ(json["mesh"]["vertices"].get<int64_t>(), 6 * (3 + 3));
+  const std::string glb = io::read_file((folder / "mesh.glb").string());
+  const auto gltf = nlohmann::json::parse(glb.substr(20, u32_at(glb, 12)));
+  EXPECT_EQ(gltf["accessors"][2]["count"].get<int64_t>(), 3 * 2 * 5 * (2 + 2));
+
+  // Unfiltered, the mesh skips the step's cells itself, unless told not to (rtol 0).
+  write_prediction_outputs(folder.string(), at::rand({6, 8, 3}), unfiltered, options);
+  json = camera_json(folder);
+  EXPECT_EQ(json["edge_filter"]["removed_pixels"].get<int64_t>(), 0);
+  EXPECT_EQ(json["mesh"]["triangles"].get<int64_t>(), 2 * 5 * (2 + 2));
+  options.mesh_edge_rtol = 0;
+  write_prediction_outputs(folder.string(), at::rand({6, 8, 3}), unfiltered, options);
+  EXPECT_EQ(camera_json(folder)["mesh"]["triangles"].get<int64_t>(), 2 * 5 * 7);
+}
+
+TEST(PredictOutputs, NormalsOfATiltedPlane) {
+  // The plane n · P = 4 with n = (0, 0.6, 0.8) seen through a pinhole: normals.npy is -n.
+  const camera::Rays rays = camera::parse_camera("PINHOLE 16 12 14 14 8 6").ray_map();
+  const at::Tensor distance = 4.0f / (rays.rays * at::tensor({0.f, 0.6f, 0.8f})).sum(-1);
+  const Prediction p = prediction_from_geometry(rays.rays, distance, rays.valid);
+  OutputOptions options;
+  options.files = parse_output_list("normals.npy");
+  const fs::path folder = fresh_dir("normals") / "sample";
+  write_prediction_outputs(folder.string(), at::zeros({12, 16, 3}), p, options);
+  const at::Tensor normals = io::read_npy((folder / "normals.npy").string());
+  ASSERT_EQ(normals.sizes(), (at::IntArrayRef{12, 16, 3}));
+  EXPECT_LT((normals - at::tensor({0.f, -0.6f, -0.8f})).abs().max().item<float>(), 1e-5);
 }
 
 }  // namespace

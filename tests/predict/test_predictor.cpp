@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/geometry/grid_surface.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
@@ -138,6 +139,33 @@ TEST(Predictor, ConcurrentCallsMatchSequentialOnes) {
     EXPECT_TRUE(at::allclose(batch[i].distance, sequential[i].distance, 1e-4, 1e-5)) << i;
 }
 
+// The flying-pixel filter on the network's output: exactly geometry::depth_edge_mask of the
+// unfiltered prediction's distance leaves the mask (and its geometry), counted; 0 is off.
+TEST(Predictor, EdgeFilterTakesDepthEdgesOutOfTheMask) {
+  const Model model = Model::load(tiny_model_path());
+  const at::Tensor image = at::rand({30, 40, 3}, at::make_generator<at::CPUGeneratorImpl>(7));
+  PredictOptions options;
+  options.num_tokens = 12;
+  options.camera = camera::parse_camera("PINHOLE 40 30 35 35 20 15");
+  options.edge_rtol = 0;
+  const Prediction off = model.predict(image, options);
+  EXPECT_EQ(off.edge_rtol, 0);
+  EXPECT_EQ(off.edge_pixels_removed, 0);
+  EXPECT_EQ(PredictOptions{}.edge_rtol, kDefaultEdgeRtol);
+  for (const double rtol : {kDefaultEdgeRtol, 0.002}) {
+    options.edge_rtol = rtol;
+    const Prediction p = model.predict(image, options);
+    const at::Tensor edges = geometry::depth_edge_mask(off.distance, off.mask, rtol);
+    EXPECT_EQ(p.edge_rtol, rtol);
+    EXPECT_EQ(p.edge_pixels_removed, edges.sum().item<int64_t>()) << rtol;
+    EXPECT_TRUE(at::equal(p.mask, off.mask & ~edges)) << rtol;
+    EXPECT_FALSE(p.distance.masked_select(edges).ne(0).any().item<bool>()) << rtol;
+    EXPECT_FALSE(p.points.masked_select(edges.unsqueeze(-1)).ne(0).any().item<bool>()) << rtol;
+  }
+  // The tight tolerance does find edges in a random network's output.
+  EXPECT_GT(geometry::depth_edge_mask(off.distance, off.mask, 0.002).sum().item<int64_t>(), 0);
+}
+
 TEST(Predictor, SparseDepthAlignsTheMetricScale) {
   const Model model = Model::load(tiny_model_path());
   const at::Tensor image = at::rand({30, 40, 3}, at::make_generator<at::CPUGeneratorImpl>(9));
@@ -208,6 +236,7 @@ TEST(Predictor, MoGe2CheckpointGivesItsInferPoints) {
   PredictOptions options;
   options.num_tokens = 300;
   options.fit_model = "PINHOLE";
+  options.edge_rtol = 0;  // MoGe's infer() mask: its script filters edges for the mesh only
   const Prediction p = model.predict(image, options);
   const at::Tensor expected_mask =
       io::read_npy(fixture + "/expected_infer_mask.npy")[0].to(at::kBool);

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <ostream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "omnipoint/io/atomic_file.h"
 
@@ -14,18 +16,23 @@ namespace omnipoint::io {
 
 namespace {
 
+using json = nlohmann::json;
+
 constexpr uint32_t kMagic = 0x46546C67;      // "glTF"
 constexpr uint32_t kJsonChunk = 0x4E4F534A;  // "JSON"
 constexpr uint32_t kBinChunk = 0x004E4942;   // "BIN\0"
-constexpr int kFloat = 5126, kUnsignedByte = 5121, kArrayBuffer = 34962, kPoints = 0;
+constexpr int kFloat = 5126, kUnsignedByte = 5121, kUnsignedInt = 5125;
+constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+constexpr int kPoints = 0, kTriangles = 4;
 
 void append_u32(std::string& out, uint32_t value) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
 }
 
-}  // namespace
-
-std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors) {
+// faces: (T, 3) int64 CPU indices, or undefined for a point cloud. Every array is a multiple
+// of 4 bytes long, so the BIN chunk needs no padding between or after them.
+std::string encode(const at::Tensor& points, const at::Tensor& colors,
+                   const at::Tensor& face_indices) {
   if (points.dim() != 2 || points.size(1) != 3 || !at::isFloatingType(points.scalar_type()))
     throw std::invalid_argument("glb: points must be floating (N, 3), got " +
                                 c10::str(points.sizes()));
@@ -40,30 +47,31 @@ std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors
   const at::Tensor rgb =
       colors.defined() ? colors.to(at::kCPU) : at::full({count, 3}, 255, at::kByte);
   const at::Tensor rgba = at::cat({rgb, at::full({count, 1}, 255, at::kByte)}, 1).contiguous();
+  if (face_indices.defined() && face_indices.numel() > 0 &&
+      (face_indices.min().item<int64_t>() < 0 || face_indices.max().item<int64_t>() >= count))
+    throw std::invalid_argument("glb: face indices must lie in [0, " + std::to_string(count) + ")");
+  // uint32 in the file; int32 holds every index of a GLB under 4 GiB (< 2^28 vertices).
+  const at::Tensor faces =
+      face_indices.defined() ? face_indices.to(at::kInt).contiguous() : at::Tensor();
+  const int64_t index_count = faces.defined() ? faces.numel() : 0;
 
-  const int64_t position_bytes = count * 12, color_bytes = count * 4;
-  std::string bin(static_cast<size_t>(position_bytes + color_bytes), '\0');
-  if (count > 0) {
-    std::memcpy(bin.data(), positions.data_ptr<float>(), position_bytes);
-    std::memcpy(bin.data() + position_bytes, rgba.data_ptr<uint8_t>(), color_bytes);
-  }
-
-  nlohmann::json gltf;
+  const int64_t position_bytes = count * 12, color_bytes = count * 4, index_bytes = index_count * 4;
+  const int64_t bin_bytes = position_bytes + color_bytes + index_bytes;
+  json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "omnipoint"}};
   gltf["scene"] = 0;
-  gltf["scenes"] = nlohmann::json::array({nlohmann::json{{"nodes", nlohmann::json::array({0})}}});
-  if (count == 0) {
-    gltf["nodes"] = nlohmann::json::array({nlohmann::json{{"name", "omnipoint"}}});
+  gltf["scenes"] = json::array({json{{"nodes", json::array({0})}}});
+  const bool empty = count == 0 || (faces.defined() && index_count == 0);
+  if (empty) {
+    gltf["nodes"] = json::array({json{{"name", "omnipoint"}}});
   } else {
     const at::Tensor low = std::get<0>(positions.min(0)), high = std::get<0>(positions.max(0));
     const auto vec = [](const at::Tensor& t) {
       return std::vector<float>{t[0].item<float>(), t[1].item<float>(), t[2].item<float>()};
     };
-    using json = nlohmann::json;
     gltf["nodes"] = json::array({json{{"name", "omnipoint"}, {"mesh", 0}}});
-    const json attributes = {{"POSITION", 0}, {"COLOR_0", 1}};
-    const json primitive = {{"attributes", attributes}, {"mode", kPoints}};
-    gltf["meshes"] = json::array({json{{"primitives", json::array({primitive})}}});
+    json primitive = {{"attributes", {{"POSITION", 0}, {"COLOR_0", 1}}},
+                      {"mode", faces.defined() ? kTriangles : kPoints}};
     gltf["accessors"] = json::array({json{{"bufferView", 0},
                                           {"componentType", kFloat},
                                           {"count", count},
@@ -83,37 +91,79 @@ std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors
                                             {"byteOffset", position_bytes},
                                             {"byteLength", color_bytes},
                                             {"target", kArrayBuffer}}});
-    gltf["buffers"] = json::array({json{{"byteLength", bin.size()}}});
+    if (faces.defined()) {
+      primitive["indices"] = 2;
+      primitive["material"] = 0;
+      gltf["accessors"].push_back({{"bufferView", 2},
+                                   {"componentType", kUnsignedInt},
+                                   {"count", index_count},
+                                   {"type", "SCALAR"}});
+      gltf["bufferViews"].push_back({{"buffer", 0},
+                                     {"byteOffset", position_bytes + color_bytes},
+                                     {"byteLength", index_bytes},
+                                     {"target", kElementArrayBuffer}});
+      // The default material is metallic (black without an environment) and single-sided.
+      gltf["materials"] = json::array(
+          {json{{"pbrMetallicRoughness", {{"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+                {"doubleSided", true}}});
+    }
+    gltf["meshes"] = json::array({json{{"primitives", json::array({primitive})}}});
+    gltf["buffers"] = json::array({json{{"byteLength", bin_bytes}}});
   }
-  std::string json = gltf.dump();
-  json.append((4 - json.size() % 4) % 4, ' ');
-  bin.append((4 - bin.size() % 4) % 4, '\0');  // already aligned (12 and 4 bytes per point)
+  std::string text = gltf.dump();
+  text.append((4 - text.size() % 4) % 4, ' ');
 
-  const bool with_bin = count > 0;
-  const size_t total = 12 + 8 + json.size() + (with_bin ? 8 + bin.size() : 0);
-  if (total > UINT32_MAX)
-    throw std::invalid_argument("glb: the point cloud exceeds the 4 GiB GLB limit");
+  const size_t total = 12 + 8 + text.size() + (empty ? 0 : 8 + bin_bytes);
+  if (total > UINT32_MAX) throw std::invalid_argument("glb: the data exceeds the 4 GiB GLB limit");
   std::string out;
   out.reserve(total);
   append_u32(out, kMagic);
   append_u32(out, 2);
   append_u32(out, static_cast<uint32_t>(total));
-  append_u32(out, static_cast<uint32_t>(json.size()));
+  append_u32(out, static_cast<uint32_t>(text.size()));
   append_u32(out, kJsonChunk);
-  out += json;
-  if (with_bin) {
-    append_u32(out, static_cast<uint32_t>(bin.size()));
+  out += text;
+  if (!empty) {
+    append_u32(out, static_cast<uint32_t>(bin_bytes));
     append_u32(out, kBinChunk);
-    out += bin;
+    const size_t bin = out.size();
+    out.resize(total);
+    std::memcpy(out.data() + bin, positions.data_ptr<float>(), position_bytes);
+    std::memcpy(out.data() + bin + position_bytes, rgba.data_ptr<uint8_t>(), color_bytes);
+    if (index_bytes > 0)
+      std::memcpy(out.data() + bin + position_bytes + color_bytes, faces.data_ptr<int32_t>(),
+                  index_bytes);
   }
   return out;
 }
 
-void write_glb_points(const std::string& path, const at::Tensor& points, const at::Tensor& colors) {
-  const std::string bytes = encode_glb_points(points, colors);
+void write_bytes(const std::string& path, const std::string& bytes) {
   write_file_atomically(path, [&](std::ostream& out) {
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   });
+}
+
+}  // namespace
+
+std::string encode_glb_points(const at::Tensor& points, const at::Tensor& colors) {
+  return encode(points, colors, {});
+}
+
+void write_glb_points(const std::string& path, const at::Tensor& points, const at::Tensor& colors) {
+  write_bytes(path, encode_glb_points(points, colors));
+}
+
+std::string encode_glb_mesh(const at::Tensor& vertices, const at::Tensor& colors,
+                            const at::Tensor& faces) {
+  if (!faces.defined() || faces.dim() != 2 || faces.size(1) != 3 ||
+      !at::isIntegralType(faces.scalar_type(), /*includeBool=*/false))
+    throw std::invalid_argument("glb: faces must be integer (T, 3)");
+  return encode(vertices, colors, faces.to(at::kCPU, at::kLong));
+}
+
+void write_glb_mesh(const std::string& path, const at::Tensor& vertices, const at::Tensor& colors,
+                    const at::Tensor& faces) {
+  write_bytes(path, encode_glb_mesh(vertices, colors, faces));
 }
 
 }  // namespace omnipoint::io

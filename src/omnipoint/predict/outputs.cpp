@@ -3,14 +3,18 @@
 #include <ATen/ATen.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <ostream>
 #include <random>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "omnipoint/camera/camera_info.h"
 #include "omnipoint/geometry/colormap.h"
+#include "omnipoint/geometry/grid_surface.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/glb.h"
@@ -41,6 +45,7 @@ nlohmann::json summary(const Prediction& p) {
   json["metric_scale"] = p.metric_scale;
   json["sparse_depth"] = {{"samples", p.sparse_samples}, {"alignment_factor", p.alignment_factor}};
   json["valid_pixels"] = p.mask.sum().item<int64_t>();
+  json["edge_filter"] = {{"rtol", p.edge_rtol}, {"removed_pixels", p.edge_pixels_removed}};
   json["notes"] = p.notes;
   json["timing_ms"] = {{"prepare", p.timing.prepare_ms},
                        {"network", p.timing.network_ms},
@@ -53,20 +58,117 @@ void write_text(const fs::path& path, const std::string& text) {
   io::write_file_atomically(path.string(), [&](std::ostream& out) { out << text; });
 }
 
+// The groups of parse_output_list, in the order its message lists them.
+const std::vector<std::pair<std::string, std::vector<std::string>>>& output_groups() {
+  static const std::vector<std::pair<std::string, std::vector<std::string>>> groups = {
+      {"ply", {"points.ply"}},
+      {"glb", {"points.glb"}},
+      {"npy", {"points.npy", "distance.npy", "depth.npy", "rays.npy", "normals.npy"}},
+      {"depth", {"depth.png", "distance.png"}},
+      {"mask", {"mask.png"}},
+      {"vis", {"depth_vis.png"}},
+      {"preview", {"preview.png"}},
+      {"png", {"mask.png", "depth.png", "distance.png", "depth_vis.png", "preview.png"}},
+      {"mesh", {"mesh.glb"}},
+      {"camera", {"camera.json"}},
+  };
+  return groups;
+}
+
+std::set<std::string> all_output_files() {
+  std::set<std::string> files;
+  for (const auto& [name, members] : output_groups()) files.insert(members.begin(), members.end());
+  return files;
+}
+
+// A 16-bit PNG of `values` (H, W) metres at `units_per_metre`: 0 outside `valid` and where
+// the rounded value is not in [1, 65535] (counted).
+struct Png16 {
+  at::Tensor codes;  // (H, W) int32
+  int64_t out_of_range = 0;
+};
+Png16 quantize_png16(const at::Tensor& values, const at::Tensor& valid, double units_per_metre) {
+  const at::Tensor codes = (values.to(at::kDouble) * units_per_metre).round();
+  const at::Tensor fits = valid & (codes >= 1) & (codes <= 65535);
+  return {at::where(fits, codes, at::zeros_like(codes)).to(at::kInt),
+          (valid & ~fits).sum().item<int64_t>()};
+}
+
+constexpr double kDepthPngUnitsPerMetre = 1000;    // millimetres
+constexpr double kDistancePngUnitsPerMetre = 256;  // KITTI's depth-PNG scale
+
+// camera.json's record of a 16-bit PNG's encoding.
+nlohmann::json png16_record(const char* quantity, double units_per_metre, const Png16& png) {
+  return {{"quantity", quantity},
+          {"scale_m_per_unit", 1 / units_per_metre},
+          {"max_m", 65535 / units_per_metre},
+          {"zero", "invalid or not representable"},
+          {"out_of_range_pixels", png.out_of_range}};
+}
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
 }  // namespace
+
+std::set<std::string> default_output_files() {
+  std::set<std::string> files = all_output_files();
+  files.erase("mesh.glb");
+  return files;
+}
+
+std::set<std::string> parse_output_list(const std::string& list) {
+  const std::set<std::string> every_file = all_output_files();
+  std::set<std::string> files = {"camera.json"};
+  std::string names;  // the valid names, for the message
+  for (const auto& [name, members] : output_groups()) names += name + ", ";
+  names += "default, all, or a file name (";
+  for (const std::string& file : every_file)
+    names += file + (file == *every_file.rbegin() ? ")" : ", ");
+  size_t begin = 0;
+  while (true) {
+    const size_t comma = list.find(',', begin);
+    const std::string name =
+        list.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin);
+    const auto group = std::find_if(output_groups().begin(), output_groups().end(),
+                                    [&](const auto& entry) { return entry.first == name; });
+    if (group != output_groups().end()) {
+      files.insert(group->second.begin(), group->second.end());
+    } else if (name == "default" || name == "all") {
+      const std::set<std::string> chosen = name == "all" ? every_file : default_output_files();
+      files.insert(chosen.begin(), chosen.end());
+    } else if (every_file.count(name) != 0) {
+      files.insert(name);
+    } else {
+      throw std::invalid_argument(
+          "outputs: " +
+          (name.empty() ? std::string("an empty name") : "unknown name \"" + name + "\"") +
+          " in \"" + list + "\"; valid: " + names);
+    }
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  return files;
+}
 
 std::string prediction_summary_json(const Prediction& prediction) {
   return summary(prediction).dump(2);
 }
 
 double write_prediction_outputs(const std::string& folder, const at::Tensor& image,
-                                const Prediction& p) {
+                                const Prediction& p, const OutputOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const int64_t height = p.mask.size(0), width = p.mask.size(1);
   if (image.dim() != 3 || image.size(0) != height || image.size(1) != width || image.size(2) != 3)
     throw std::invalid_argument("outputs: the image is " + c10::str(image.sizes()) +
                                 ", the prediction " + std::to_string(height) + "x" +
                                 std::to_string(width));
+  for (const std::string& file : options.files)
+    if (file != "camera.json" && all_output_files().count(file) == 0)
+      throw std::invalid_argument("outputs: unknown file \"" + file + "\"");
+  const auto wanted = [&](const char* file) { return options.files.count(file) != 0; };
   const at::Tensor rgb =
       image.scalar_type() == at::kByte
           ? image.to(at::kCPU)
@@ -80,31 +182,71 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
       parent / ("." + target.filename().string() + ".partial-" + std::to_string(random()));
   fs::create_directories(staging);
   try {
-    const geometry::PointCloud cloud =
-        geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
-    io::write_ply((staging / "points.ply").string(), cloud.points, cloud.colors);
-    io::write_glb_points((staging / "points.glb").string(), cloud.points, cloud.colors);
-    io::write_npy((staging / "points.npy").string(), p.points.to(at::kFloat));
-    io::write_npy((staging / "distance.npy").string(), p.distance.to(at::kFloat));
-    io::write_npy((staging / "depth.npy").string(), p.depth.to(at::kFloat));
-    io::write_npy((staging / "rays.npy").string(), p.rays.to(at::kFloat));
-    io::write_image_png((staging / "mask.png").string(), p.mask);
-    const at::Tensor depth_mm =
-        at::where(p.mask & (p.depth > 0), (p.depth * 1000.0).round().clamp(0, 65535),
-                  at::zeros_like(p.depth));
-    io::write_image_png((staging / "depth.png").string(), depth_mm.to(at::kInt));
-    io::write_image_png((staging / "depth_vis.png").string(),
-                        geometry::colorize_depth(p.distance, p.mask));
-    const auto preview_start = std::chrono::steady_clock::now();
-    io::write_image_png((staging / "preview.png").string(),
-                        render_preview(cloud.points, cloud.colors));
-    const double preview_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - preview_start)
-            .count();
     nlohmann::json json = summary(p);
-    json["timing_ms"]["preview"] = preview_ms;  // part of writing
-    json["timing_ms"]["writing"] =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    nlohmann::json file_ms = nlohmann::json::object();
+    // Runs `write` (which computes what only its file needs) when `file` is wanted, timed.
+    const auto produce = [&](const char* file, const auto& write) {
+      if (!wanted(file)) return;
+      const auto file_start = std::chrono::steady_clock::now();
+      write((staging / file).string());
+      file_ms[file] = ms_since(file_start);
+    };
+    geometry::PointCloud cloud;  // the valid points, shared by the PLY, the GLB and the preview
+    if (wanted("points.ply") || wanted("points.glb") || wanted("preview.png")) {
+      const auto cloud_start = std::chrono::steady_clock::now();
+      cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
+      json["timing_ms"]["valid_points"] = ms_since(cloud_start);
+    }
+    produce("points.ply",
+            [&](const std::string& path) { io::write_ply(path, cloud.points, cloud.colors); });
+    produce("points.glb", [&](const std::string& path) {
+      io::write_glb_points(path, cloud.points, cloud.colors);
+    });
+    produce("points.npy",
+            [&](const std::string& path) { io::write_npy(path, p.points.to(at::kFloat)); });
+    produce("distance.npy",
+            [&](const std::string& path) { io::write_npy(path, p.distance.to(at::kFloat)); });
+    produce("depth.npy",
+            [&](const std::string& path) { io::write_npy(path, p.depth.to(at::kFloat)); });
+    produce("rays.npy",
+            [&](const std::string& path) { io::write_npy(path, p.rays.to(at::kFloat)); });
+    produce("normals.npy", [&](const std::string& path) {
+      io::write_npy(path,
+                    geometry::normals_from_point_map(p.points, p.mask).normals.to(at::kFloat));
+    });
+    produce("mask.png", [&](const std::string& path) { io::write_image_png(path, p.mask); });
+    produce("depth.png", [&](const std::string& path) {
+      const Png16 png = quantize_png16(p.depth, p.mask & (p.depth > 0), kDepthPngUnitsPerMetre);
+      io::write_image_png(path, png.codes);
+      json["depth_png"] = png16_record("planar depth z", kDepthPngUnitsPerMetre, png);
+      json["depth_png"]["behind_camera_pixels"] = (p.mask & (p.depth <= 0)).sum().item<int64_t>();
+    });
+    produce("distance.png", [&](const std::string& path) {
+      const Png16 png = quantize_png16(p.distance, p.mask, kDistancePngUnitsPerMetre);
+      io::write_image_png(path, png.codes);
+      json["distance_png"] = png16_record("radial distance", kDistancePngUnitsPerMetre, png);
+    });
+    produce("depth_vis.png", [&](const std::string& path) {
+      io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
+    });
+    produce("preview.png", [&](const std::string& path) {
+      io::write_image_png(path, render_preview(cloud.points, cloud.colors));
+    });
+    produce("mesh.glb", [&](const std::string& path) {
+      const at::Tensor kept =
+          p.mask & ~geometry::depth_edge_mask(p.distance, p.mask, options.mesh_edge_rtol);
+      const geometry::GridMesh mesh = geometry::grid_mesh(p.points, kept);
+      io::write_glb_mesh(path, mesh.vertices, rgb.reshape({-1, 3}).index_select(0, mesh.pixels),
+                         mesh.faces);
+      json["mesh"] = {{"vertices", mesh.vertices.size(0)},
+                      {"triangles", mesh.faces.size(0)},
+                      {"edge_rtol", options.mesh_edge_rtol}};
+    });
+    std::set<std::string> written = options.files;
+    written.insert("camera.json");
+    json["files"] = written;
+    json["timing_ms"]["files"] = file_ms;  // part of writing
+    json["timing_ms"]["writing"] = ms_since(start);
     write_text(staging / "camera.json", json.dump(2) + "\n");
     fs::remove_all(target);
     fs::rename(staging, target);
@@ -113,8 +255,7 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     fs::remove_all(staging, ignored);
     throw;
   }
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
+  return ms_since(start);
 }
 
 }  // namespace omnipoint::predict

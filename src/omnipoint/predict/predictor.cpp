@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "omnipoint/camera/fit.h"
+#include "omnipoint/geometry/grid_surface.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/infer.h"
@@ -202,6 +203,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
     Prediction p = prediction({rays[b], distance[b], points[b], mask[b]}, scale[b].item<double>());
     p.alignment_factor = factor[b].item<double>();
     p.sparse_samples = samples[b].item<int64_t>();
+    remove_depth_edges(p, options.edge_rtol);
     p.notes = notes;
     start = Clock::now();
     p.fitted_camera = fit(options.fit_model, inputs.camera, p.rays, p.mask, &p.fit_error);
@@ -255,6 +257,18 @@ std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid) {
   if (min_z >= std::cos(70.0 * M_PI / 180.0)) return "PINHOLE";
   if (min_z > -0.95) return "OPENCV_FISHEYE";  // no lens sees within 18° of straight back
   return "EQUIRECTANGULAR";
+}
+
+void remove_depth_edges(Prediction& p, double rtol) {
+  if (rtol <= 0) return;
+  const at::Tensor edges = geometry::depth_edge_mask(p.distance, p.mask, rtol);
+  p.edge_rtol = rtol;
+  p.edge_pixels_removed = edges.sum().item<int64_t>();
+  if (p.edge_pixels_removed == 0) return;
+  p.mask = p.mask & ~edges;
+  p.distance = p.distance.masked_fill(edges, 0);
+  p.points = p.points.masked_fill(edges.unsqueeze(-1), 0);
+  p.depth = geometry::planar_depth(p.points);
 }
 
 Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& distance,

@@ -51,6 +51,10 @@ struct SparseDepthInput {
   bool empty() const { return !depth_map.defined() && !lidar_points.defined(); }
 };
 
+// MoGe's tolerance for removing depth edges (moge/scripts/infer.py `--threshold`: its default
+// is 0.04, although its help text says 0.01).
+inline constexpr double kDefaultEdgeRtol = 0.04;
+
 struct PredictOptions {
   // The image's camera (any model); its size must equal the image's or have its aspect ratio
   // (it is then resized). It conditions the network, and the output points lie on its rays
@@ -63,6 +67,9 @@ struct PredictOptions {
   std::string fit_model = "auto";
   // Rescale the metric scale to the sparse depth (robust L1 fit, paper) when there is any.
   bool align_to_sparse_depth = true;
+  // Flying-pixel removal (remove_depth_edges): pixels at a depth discontinuity of more than
+  // this relative tolerance leave the mask; 0: off.
+  double edge_rtol = kDefaultEdgeRtol;
 };
 
 // Wall-clock milliseconds per stage of one predict call.
@@ -75,14 +82,16 @@ struct StageTimes {
 };
 
 struct Prediction {
-  at::Tensor rays;                // (H, W, 3) unit rays; zero where invalid
-  at::Tensor distance;            // (H, W) metric radial distance; zero where mask is false
-  at::Tensor depth;               // (H, W) planar depth z = P.z; zero where mask is false
-  at::Tensor points;              // (H, W, 3) metric points; zero where mask is false
-  at::Tensor mask;                // (H, W) bool: valid geometry
-  double metric_scale = 1.0;      // s (after alignment); 1 for scale-less (affine) models
-  double alignment_factor = 1.0;  // the factor the sparse-depth alignment applied to s
-  int64_t sparse_samples = 0;     // valid sparse-depth pixels used
+  at::Tensor rays;                  // (H, W, 3) unit rays; zero where invalid
+  at::Tensor distance;              // (H, W) metric radial distance; zero where mask is false
+  at::Tensor depth;                 // (H, W) planar depth z = P.z; zero where mask is false
+  at::Tensor points;                // (H, W, 3) metric points; zero where mask is false
+  at::Tensor mask;                  // (H, W) bool: valid geometry
+  double metric_scale = 1.0;        // s (after alignment); 1 for scale-less (affine) models
+  double alignment_factor = 1.0;    // the factor the sparse-depth alignment applied to s
+  int64_t sparse_samples = 0;       // valid sparse-depth pixels used
+  double edge_rtol = 0;             // the flying-pixel filter's tolerance (0: not applied)
+  int64_t edge_pixels_removed = 0;  // pixels it took out of the mask
   std::optional<camera::Camera> fitted_camera;
   std::string fit_error;           // why no camera was fitted, when fit_model asked for one
   std::vector<std::string> notes;  // what the prediction did that a user should know
@@ -127,6 +136,11 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
 // ray is within 70° of the axis, OPENCV_FISHEYE while none points within 18° of straight
 // back, EQUIRECTANGULAR beyond (panoramas see all around).
 std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid);
+
+// Removes the flying pixels at depth edges (geometry::depth_edge_mask on the radial distance,
+// so wide lenses and panoramas too) from p.mask and zeroes their points, distance and depth
+// (the rays stay: they are the camera's); records rtol and the count in p. rtol <= 0: no-op.
+void remove_depth_edges(Prediction& p, double rtol);
 
 // A prediction built from geometry alone (the output writers' input; also the oracle path of
 // the tests): rays (H, W, 3), metric distance (H, W), mask (H, W); points, depth and the
