@@ -22,7 +22,8 @@ CameraFit fit_auto(const Camera& truth) {
 
 TEST(FitCameraAuto, PinholeRaysGivePinhole) {
   // A wide pinhole (114 degrees diagonally) too: it must not become a fisheye.
-  for (const std::string spec : {"PINHOLE 640 480 525 523 319.5 241", "PINHOLE 320 240 100 100 160 120"}) {
+  for (const std::string spec :
+       {"PINHOLE 640 480 525 523 319.5 241", "PINHOLE 320 240 100 100 160 120"}) {
     const Camera truth = parse_camera(spec);
     const CameraFit fit = fit_auto(truth);
     EXPECT_EQ(fit.camera.model_name(), "PINHOLE") << spec;
@@ -49,7 +50,8 @@ TEST(FitCameraAuto, FisheyeRaysGiveAFisheyeModel) {
 // Predicted rays are noisy: the noise (0.3 degrees) must not make a pinhole a fisheye (the
 // 196-degree OPENCV_FISHEYE of issue 14), nor the fisheye a pinhole.
 at::Tensor noisy(const at::Tensor& rays, uint64_t seed) {
-  const auto noise = at::randn(rays.sizes(), at::make_generator<at::CPUGeneratorImpl>(seed)) * 0.005;
+  const auto noise =
+      at::randn(rays.sizes(), at::make_generator<at::CPUGeneratorImpl>(seed)) * 0.005;
   const auto moved = rays + noise;
   return moved / moved.norm(2, -1, true);
 }
@@ -68,7 +70,8 @@ TEST(FitCameraAuto, NoiseDoesNotChangeTheModel) {
 }
 
 TEST(FitCameraAuto, PanoramaRaysGiveEquirectangular) {
-  for (const std::string spec : {"EQUIRECTANGULAR 256 128", "EQUIRECTANGULAR 200 100 -1.5 1.5 -0.7 0.8"}) {
+  for (const std::string spec :
+       {"EQUIRECTANGULAR 256 128", "EQUIRECTANGULAR 200 100 -1.5 1.5 -0.7 0.8"}) {
     const CameraFit fit = fit_auto(parse_camera(spec));
     EXPECT_EQ(fit.camera.model_name(), "EQUIRECTANGULAR") << spec;
     EXPECT_LT(fit.residual.max_deg, 1e-3) << spec;
@@ -116,25 +119,27 @@ TEST(FitCameraAuto, CandidatesFollowTheFieldOfView) {
 
 TEST(FitCameraAuto, RejectsTooFewRays) {
   test::expect_error<std::invalid_argument>(
-      [] { fit_camera_auto(8, 8, at::zeros({8, 8, 3}), at::zeros({8, 8}, at::kBool)); },
+      [] {
+        fit_camera_auto(8, 8, at::zeros({8, 8, 3}), at::zeros({8, 8}, at::kBool));
+      },
       {"fit_camera_auto", "at least 16 valid rays"});
 }
 
 // Issue 17's budget: the camera fit within 200 ms at 640x480 on a 2-core CPU. Printed, not
 // asserted (machines differ); the report quotes it.
 TEST(FitCameraAuto, TimingAt640x480) {
-  for (const std::string spec : {"PINHOLE 640 480 525 523 319.5 241",
-                                 "OPENCV_FISHEYE 640 480 180 180 320 240 0.02 -0.005 0 0",
-                                 "EQUIRECTANGULAR 640 320"}) {
+  for (const std::string spec :
+       {"PINHOLE 640 480 525 523 319.5 241",
+        "OPENCV_FISHEYE 640 480 180 180 320 240 0.02 -0.005 0 0", "EQUIRECTANGULAR 640 320"}) {
     const Camera truth = parse_camera(spec);
     const Rays map = truth.ray_map(at::kFloat);
     for (const bool with_noise : {false, true}) {
       const at::Tensor rays = with_noise ? noisy(map.rays, 6) : map.rays;
       const auto start = std::chrono::steady_clock::now();
       const CameraFit fit = fit_camera_auto(640, truth.height(), rays, map.valid);
-      const double ms = std::chrono::duration<double, std::milli>(
-                            std::chrono::steady_clock::now() - start)
-                            .count();
+      const double ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count();
       std::cout << spec << (with_noise ? " + noise" : "") << " -> " << fit.camera.model_name()
                 << " in " << ms << " ms\n";
       EXPECT_EQ(fit.camera.model_name(), truth.model_name());

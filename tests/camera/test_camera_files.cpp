@@ -17,8 +17,8 @@ using test::expect_error;
 
 void expect_bad_file(const std::string& text, const std::vector<std::string>& parts,
                      std::optional<ImageSize> size = std::nullopt) {
-  expect_error<std::invalid_argument>(
-      [&] { parse_camera_file(text, "cam.json", "", size); }, parts);
+  expect_error<std::invalid_argument>([&] { parse_camera_file(text, "cam.json", "", size); },
+                                      parts);
 }
 
 TEST(CamerasTxt, EveryModelRoundTripsExactly) {
@@ -44,9 +44,8 @@ TEST(CamerasTxt, EveryModelRoundTripsExactly) {
 // the real file): the camera is the object under "camera".
 TEST(PredictCameraJson, CameraObjectIsRead) {
   const Camera camera = parse_camera("OPENCV_FISHEYE 64 48 20.25 20 32 24 0.01 0 0 0");
-  const std::string text = R"({"camera": )" + camera.to_json() +
-                           R"(, "camera_spec": ")" + camera.to_spec() +
-                           R"(", "metric_scale": 1.0, "notes": []})";
+  const std::string text = R"({"camera": )" + camera.to_json() + R"(, "camera_spec": ")" +
+                           camera.to_spec() + R"(", "metric_scale": 1.0, "notes": []})";
   EXPECT_EQ(parse_camera_file(text, "camera.json"), camera);
   EXPECT_EQ(parse_camera(text), camera);
 }

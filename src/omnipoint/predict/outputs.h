@@ -12,8 +12,11 @@
 //                   clamped at 65.535 m)
 //   depth_vis.png   colour-mapped inverse depth (distance, so panoramas colour too)
 //   preview.png     the cloud from an oblique viewpoint (preview.h)
-//   camera.json     fitted camera (spec, JSON, fields of view), metric scale, alignment,
-//                   notes and per-stage timing (writing included)
+//   camera.json     the camera (JSON "camera", "camera_spec" MODEL W H PARAMS, "cameras_txt_line"
+//                   1 MODEL W H PARAMS, fields of view; "camera_source" given|fitted and, when
+//                   fitted, "fit_residual_deg" median/max), metric scale, alignment, notes and
+//                   per-stage timing (writing included); `--camera camera.json` reads it back
+//   cameras.txt     the camera as a COLMAP cameras.txt (camera id 1), when there is one
 // The folder appears complete or not at all: everything is written into a temporary sibling
 // folder which is then renamed over `folder` (an older folder of that name is replaced).
 #include <ATen/core/Tensor.h>
