@@ -81,7 +81,8 @@ TEST(CameraRoundTrip, FittedCameraReportsItsResidual) {
 
 TEST(CameraRoundTrip, NoCameraFileSaysWhy) {
   const camera::Rays rays = camera::parse_camera("PINHOLE 8 8 8 8 4 4").ray_map();
-  Prediction p = prediction_from_geometry(rays.rays, at::ones({8, 8}), at::zeros({8, 8}, at::kBool));
+  Prediction p =
+      prediction_from_geometry(rays.rays, at::ones({8, 8}), at::zeros({8, 8}, at::kBool));
   p.fit_error = "fit_camera_auto: needs at least 16 valid rays, got 0";
   const fs::path folder = fresh_dir("none") / "image";
   write_prediction_outputs(folder.string(), at::rand({8, 8, 3}), p);
@@ -142,9 +143,8 @@ TEST_F(PredictCamera, FittedCameraFedBackIsUsedAsItIs) {
   const Prediction first = model().predict(image, options_with(std::nullopt));
   ASSERT_TRUE(first.fitted_camera.has_value()) << first.fit_error;
   ASSERT_TRUE(first.fit_residual.has_value());
-  const camera::AngularResidual residual =
-      camera::angular_residual(*first.fitted_camera, first.rays,
-                               first.mask & (first.rays.norm(2, -1) > 0.5));
+  const camera::AngularResidual residual = camera::angular_residual(
+      *first.fitted_camera, first.rays, first.mask & (first.rays.norm(2, -1) > 0.5));
   EXPECT_NEAR(first.fit_residual->median_deg, residual.median_deg, 1e-9);
   EXPECT_NEAR(first.fit_residual->max_deg, residual.max_deg, 1e-9);
 
