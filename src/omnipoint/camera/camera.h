@@ -7,9 +7,15 @@
 //   "PINHOLE 640 480 500 500 320 240"           a COLMAP cameras.txt line (MODEL W H PARAMS...)
 //   "1 PINHOLE 640 480 500 500 320 240"         the same with a leading camera id
 //   {"model": "PINHOLE", "width": 640, "height": 480, "params": [500, 500, 320, 240]}
+//   {"camera": {"model": ...}, ...}             a camera.json written by predict (predict/outputs.h)
+//   {"name": "Pinhole", "params": [500, 500, 320, 240]}
+//                                               a UniK3D camera (its classes: unik3d.h); optional
+//                                               "width" and "height", else the caller's size
+// What we write parses back exactly: to_spec(), cameras_txt_line(), to_cameras_txt(), to_json().
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,15 +75,21 @@ class Camera {
 Camera make_camera(const std::string& model, int64_t width, int64_t height,
                    std::vector<double> params);
 // Parses a spec string (the forms above). Bad specs -> std::invalid_argument naming the spec
-// and what was expected.
-Camera parse_camera(const std::string& spec);
+// and what was expected. `image_size` is the size of a camera whose spec has none (UniK3D's
+// JSON); it is unused otherwise.
+Camera parse_camera(const std::string& spec, std::optional<ImageSize> image_size = std::nullopt);
 // Whether `spec` has the shape of a spec string (rather than, say, a file name).
 bool is_camera_line(const std::string& spec);
 // Parses the contents of a camera file: a cameras.txt ('#' comments, "ID MODEL W H PARAMS..."
-// lines; `id` picks one, empty = the first) or one JSON object. `source` names the file in
-// errors (std::invalid_argument).
+// lines; `id` picks one, empty = the first) or one JSON object (the forms above). `source`
+// names the file in errors (std::invalid_argument); `image_size` as for parse_camera.
 Camera parse_camera_file(const std::string& text, const std::string& source,
-                         const std::string& id = "");
+                         const std::string& id = "",
+                         std::optional<ImageSize> image_size = std::nullopt);
+// The cameras.txt line "ID MODEL W H PARAMS..." (full precision, as to_spec()).
+std::string cameras_txt_line(const Camera& camera, int64_t id = 1);
+// A COLMAP cameras.txt holding `camera`: COLMAP's header comments, then its line.
+std::string to_cameras_txt(const Camera& camera, int64_t id = 1);
 // PINHOLE camera with the given horizontal field of view (0 < fov < 180 degrees), square
 // pixels and the principal point at the image centre (the short form `--fov 90`).
 Camera centred_pinhole(double horizontal_fov_deg, int64_t width, int64_t height);

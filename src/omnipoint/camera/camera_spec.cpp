@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/camera/unik3d.h"
 
 namespace omnipoint::camera {
 namespace {
@@ -108,31 +109,79 @@ Camera named(const std::string& source, Make make) {
   }
 }
 
-Camera camera_from_json(const std::string& text, const std::string& source) {
+constexpr const char* kExpectedJson =
+    "expected {\"model\": NAME, \"width\": W, \"height\": H, \"params\": [...]}, a "
+    "camera.json written by predict ({\"camera\": {...}, ...}) or a UniK3D camera "
+    "({\"name\": CLASS, \"params\": [...]})";
+
+std::vector<double> json_params(const nlohmann::json& json, const std::string& source) {
+  std::vector<double> params;
+  for (const auto& value : json["params"]) {
+    if (!value.is_number())
+      throw std::invalid_argument(source + ": params must be numbers; " + kExpectedJson);
+    params.push_back(value.get<double>());
+  }
+  return params;
+}
+
+bool has_integer(const nlohmann::json& json, const char* key) {
+  return json.contains(key) && json[key].is_number_integer();
+}
+
+// {"model": NAME, "width": W, "height": H, "params": [...]}
+Camera camera_from_object(const nlohmann::json& json, const std::string& source) {
+  if (!json.is_object() || !json.contains("model") || !json["model"].is_string() ||
+      !has_integer(json, "width") || !has_integer(json, "height") || !json.contains("params") ||
+      !json["params"].is_array()) {
+    throw std::invalid_argument(source + ": " + kExpectedJson);
+  }
+  std::vector<double> params = json_params(json, source);
+  return named(source, [&] {
+    return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
+                  json["height"].get<int64_t>(), std::move(params));
+  });
+}
+
+// predict's camera.json (predict/outputs.h): the camera object under "camera", null when
+// none was fitted ("fit_error" then says why).
+Camera camera_from_prediction_summary(const nlohmann::json& json, const std::string& source) {
+  const nlohmann::json& camera = json["camera"];
+  if (camera.is_null()) {
+    std::string why = "no camera was fitted";
+    if (json.contains("fit_error") && json["fit_error"].is_string())
+      why += ": " + json["fit_error"].get<std::string>();
+    throw std::invalid_argument(source + ": holds no camera (\"camera\": null; " + why +
+                                "); pass the camera itself");
+  }
+  return camera_from_object(camera, source);
+}
+
+// {"name": CLASS, "params": [...]} with optional "width" and "height" (unik3d.h).
+Camera camera_from_unik3d_object(const nlohmann::json& json, const std::string& source,
+                                 std::optional<ImageSize> image_size) {
+  if (!json["name"].is_string() || !json.contains("params") || !json["params"].is_array())
+    throw std::invalid_argument(source + ": " + kExpectedJson);
+  if (has_integer(json, "width") && has_integer(json, "height"))
+    image_size = ImageSize{json["width"].get<int64_t>(), json["height"].get<int64_t>()};
+  const std::vector<double> params = json_params(json, source);
+  return named(source, [&] {
+    return camera_from_unik3d(json["name"].get<std::string>(), params, image_size);
+  });
+}
+
+Camera camera_from_json(const std::string& text, const std::string& source,
+                        std::optional<ImageSize> image_size) {
   nlohmann::json json;
   try {
     json = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     throw std::invalid_argument(source + ": not valid JSON (" + e.what() + ")");
   }
-  const char* expected =
-      "expected {\"model\": NAME, \"width\": W, \"height\": H, \"params\": [...]}";
-  if (!json.is_object() || !json.contains("model") || !json["model"].is_string() ||
-      !json.contains("width") || !json["width"].is_number_integer() || !json.contains("height") ||
-      !json["height"].is_number_integer() || !json.contains("params") ||
-      !json["params"].is_array()) {
-    throw std::invalid_argument(source + ": " + expected);
+  if (json.is_object() && !json.contains("model")) {
+    if (json.contains("camera")) return camera_from_prediction_summary(json, source);
+    if (json.contains("name")) return camera_from_unik3d_object(json, source, image_size);
   }
-  std::vector<double> params;
-  for (const auto& value : json["params"]) {
-    if (!value.is_number())
-      throw std::invalid_argument(source + ": params must be numbers; " + expected);
-    params.push_back(value.get<double>());
-  }
-  return named(source, [&] {
-    return Camera(json["model"].get<std::string>(), json["width"].get<int64_t>(),
-                  json["height"].get<int64_t>(), std::move(params));
-  });
+  return camera_from_object(json, source);
 }
 
 // A cameras.txt file: '#' comments, then "ID MODEL W H PARAMS..." lines (or one "MODEL W H
@@ -172,13 +221,13 @@ std::string format_double(double value) {
 
 }  // namespace
 
-Camera parse_camera(const std::string& spec) {
+Camera parse_camera(const std::string& spec, std::optional<ImageSize> image_size) {
   const std::string text = trim(spec);
   if (text.empty()) {
     throw std::invalid_argument(
         "empty camera spec; expected 'MODEL WIDTH HEIGHT PARAMS...' or a JSON object");
   }
-  if (text[0] == '{') return camera_from_json(text, "camera spec");
+  if (text[0] == '{') return camera_from_json(text, "camera spec", image_size);
   const auto tokens = split_whitespace(text);
   std::size_t model_index = 0;
   if (tokens.size() > 1 && looks_like_line(tokens, &model_index))
@@ -198,13 +247,13 @@ bool is_camera_line(const std::string& spec) {
          (tokens.size() == 1 && is_model_name(tokens[0]));
 }
 
-Camera parse_camera_file(const std::string& text, const std::string& source,
-                         const std::string& id) {
+Camera parse_camera_file(const std::string& text, const std::string& source, const std::string& id,
+                         std::optional<ImageSize> image_size) {
   if (trim(text).rfind('{', 0) == 0) {
     if (!id.empty())
       throw std::invalid_argument(source + ": a JSON camera file holds one camera; drop '#" + id +
                                   "'");
-    return camera_from_json(text, source);
+    return camera_from_json(text, source, image_size);
   }
   if (!id.empty() && !is_integer(id))
     throw std::invalid_argument(source + ": camera id must be an integer, got '" + id + "'");
@@ -215,6 +264,17 @@ std::string Camera::to_spec() const {
   std::string spec = model_name_ + " " + std::to_string(width_) + " " + std::to_string(height_);
   for (const double value : params_) spec += " " + format_double(value);
   return spec;
+}
+
+std::string cameras_txt_line(const Camera& camera, int64_t id) {
+  return std::to_string(id) + " " + camera.to_spec();
+}
+
+std::string to_cameras_txt(const Camera& camera, int64_t id) {
+  return "# Camera list with one line of data per camera:\n"
+         "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+         "# Number of cameras: 1\n" +
+         cameras_txt_line(camera, id) + "\n";
 }
 
 std::string Camera::to_json() const {

@@ -2,6 +2,7 @@
 
 #include <ATen/ATen.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -15,13 +16,14 @@ struct Samples {
 
 Samples sample_valid_pixels(const at::Tensor& rays, const at::Tensor& valid, int64_t width,
                             int64_t max_samples) {
-  const auto flat = rays.to(at::kCPU, at::kDouble).reshape({-1, 3});
+  // Selected first, converted after: the full map stays in its dtype.
+  const auto flat = rays.to(at::kCPU).reshape({-1, 3});
   const auto usable =
       valid.to(at::kCPU).to(at::kBool).reshape({-1}) & all_finite(flat) & (length(flat) > 0);
   auto index = usable.nonzero().squeeze(1);
   const int64_t stride = std::max<int64_t>(1, (index.numel() + max_samples - 1) / max_samples);
   index = index.slice(0, 0, index.numel(), stride);
-  const auto selected = flat.index_select(0, index);
+  const auto selected = flat.index_select(0, index).to(at::kDouble);
   const auto pixels = at::stack({at::remainder(index, width).to(at::kDouble) + 0.5,
                                  at::floor_divide(index, width).to(at::kDouble) + 0.5},
                                 -1);
@@ -72,25 +74,40 @@ bool acceptable(const CameraModel& model, const std::vector<double>& params, Ima
   return true;
 }
 
-}  // namespace
-
-Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
-                  const at::Tensor& rays, const at::Tensor& valid, int64_t max_samples) {
-  const auto& model = find_camera_model(model_name);
+void check_shapes(const char* what, int64_t width, int64_t height, const at::Tensor& rays,
+                  const at::Tensor& valid) {
   if (rays.dim() != 3 || rays.size(0) != height || rays.size(1) != width || rays.size(2) != 3 ||
       valid.sizes() != rays.sizes().slice(0, 2)) {
-    throw std::invalid_argument("fit_camera: expects rays (" + std::to_string(height) + ", " +
-                                std::to_string(width) + ", 3) and valid (" +
+    throw std::invalid_argument(std::string(what) + ": expects rays (" + std::to_string(height) +
+                                ", " + std::to_string(width) + ", 3) and valid (" +
                                 std::to_string(height) + ", " + std::to_string(width) + ")");
   }
-  const ImageSize size{width, height};
-  const auto samples = sample_valid_pixels(rays, valid, width, max_samples);
+}
+
+Samples samples_for_fit(int64_t width, int64_t height, const at::Tensor& rays,
+                        const at::Tensor& valid, int64_t max_samples, const char* what) {
+  check_shapes(what, width, height, rays, valid);
+  auto samples = sample_valid_pixels(rays, valid, width, max_samples);
   if (samples.rays.size(0) < 16) {
-    throw std::invalid_argument("fit_camera: needs at least 16 valid rays, got " +
+    throw std::invalid_argument(std::string(what) + ": needs at least 16 valid rays, got " +
                                 std::to_string(samples.rays.size(0)));
   }
-  const auto guess = pinhole_guess(samples, size);
-  std::vector<double> params = model.initial_params(guess[0], guess[1], guess[2], guess[3], size);
+  return samples;
+}
+
+// Levenberg-Marquardt on the reprojection error of the samples (fit.h).
+// Starts from `start` when given, else from the pinhole guess.
+Camera fit_samples(const std::string& model_name, ImageSize size, const Samples& samples,
+                   int max_iterations = 100, const std::vector<double>* start = nullptr) {
+  const auto& model = find_camera_model(model_name);
+  const int64_t width = size.width, height = size.height;
+  std::vector<double> params;
+  if (start) {
+    params = *start;
+  } else {
+    const auto guess = pinhole_guess(samples, size);
+    params = model.initial_params(guess[0], guess[1], guess[2], guess[3], size);
+  }
 
   // Reprojection residuals (2N); rays the parameters cannot project cost an image diagonal.
   const double penalty = std::hypot(static_cast<double>(width), static_cast<double>(height));
@@ -105,7 +122,7 @@ Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
   auto r = residual(params);
   double cost = (r * r).sum().item<double>();
   double lambda = 1e-3;
-  for (int iteration = 0; iteration < 100 && count > 0; ++iteration) {
+  for (int iteration = 0; iteration < max_iterations && count > 0; ++iteration) {
     auto jacobian = at::empty({r.size(0), count}, r.options());
     for (int64_t i = 0; i < count; ++i) {
       auto shifted = params;
@@ -144,6 +161,94 @@ Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
     throw std::invalid_argument("fit_camera: fitting " + model_name +
                                 " to the ray map failed: " + e.what());
   }
+}
+
+// The angle in degrees between the camera's ray at each sample pixel and the sample's ray;
+// 180 where the camera has none.
+at::Tensor angles_deg(const Camera& camera, const Samples& samples) {
+  const Rays own = camera.unproject(samples.pixels);
+  const auto cosine = (own.rays * samples.rays).sum(-1).clamp(-1.0, 1.0);
+  return at::where(own.valid, at::acos(cosine) * (180.0 / M_PI), at::full_like(cosine, 180.0));
+}
+
+AngularResidual summarise(const at::Tensor& angles) {
+  if (angles.numel() == 0) return {};
+  return {angles.median().item<double>(), angles.mean().item<double>(),
+          angles.max().item<double>()};
+}
+
+}  // namespace
+
+Camera fit_camera(const std::string& model_name, int64_t width, int64_t height,
+                  const at::Tensor& rays, const at::Tensor& valid, int64_t max_samples) {
+  find_camera_model(model_name);  // unknown model -> lists the known ones, before any work
+  const auto samples = samples_for_fit(width, height, rays, valid, max_samples, "fit_camera");
+  return fit_samples(model_name, {width, height}, samples);
+}
+
+AngularResidual angular_residual(const Camera& camera, const at::Tensor& rays,
+                                 const at::Tensor& valid, int64_t max_samples) {
+  check_shapes("angular_residual", camera.width(), camera.height(), rays, valid);
+  return summarise(
+      angles_deg(camera, sample_valid_pixels(rays, valid, camera.width(), max_samples)));
+}
+
+CameraFit fit_camera_model(const std::string& model, int64_t width, int64_t height,
+                           const at::Tensor& rays, const at::Tensor& valid) {
+  Camera camera = fit_camera(model, width, height, rays, valid);
+  const AngularResidual residual = angular_residual(camera, rays, valid);
+  return {std::move(camera), residual};
+}
+
+std::vector<std::string> auto_fit_candidates(double max_angle_deg) {
+  std::vector<std::string> names;
+  if (max_angle_deg < 80) names.push_back("PINHOLE");
+  if (max_angle_deg >= 60) names.push_back("EQUIRECTANGULAR");
+  if (max_angle_deg < 150) names.push_back("UCM");
+  if (max_angle_deg < 150) names.push_back("OPENCV_FISHEYE");
+  return names;
+}
+
+CameraFit fit_camera_auto(int64_t width, int64_t height, const at::Tensor& rays,
+                          const at::Tensor& valid) {
+  // The rule's numbers (fit.h).
+  constexpr int64_t kScoringSamples = 1024;
+  constexpr int kScoringIterations = 20;
+  constexpr double kGoodEnoughDeg = 0.1;
+  constexpr double kRelativeTolerance = 0.1;
+  const auto samples = samples_for_fit(width, height, rays, valid, 4096, "fit_camera_auto");
+  const auto scoring = sample_valid_pixels(rays, valid, width, kScoringSamples);
+  const double max_angle_deg =
+      std::acos(std::clamp(samples.rays.select(-1, 2).min().item<double>(), -1.0, 1.0)) * 180.0 /
+      M_PI;
+  struct Scored {
+    Camera camera;
+    double mean_deg;
+  };
+  std::vector<Scored> scored;
+  std::string failures;
+  for (const std::string& name : auto_fit_candidates(max_angle_deg)) {
+    try {
+      Camera camera = fit_samples(name, {width, height}, scoring, kScoringIterations);
+      const double mean_deg = angles_deg(camera, scoring).mean().item<double>();
+      scored.push_back({std::move(camera), mean_deg});
+      if (mean_deg < kGoodEnoughDeg) break;
+    } catch (const std::invalid_argument& e) {
+      failures += std::string(failures.empty() ? "" : "; ") + e.what();
+    }
+  }
+  if (scored.empty())
+    throw std::invalid_argument("fit_camera_auto: no candidate model fits the rays: " + failures);
+  double lowest_deg = scored.front().mean_deg;
+  for (const Scored& each : scored) lowest_deg = std::min(lowest_deg, each.mean_deg);
+  const double tolerance_deg = std::max(kGoodEnoughDeg, kRelativeTolerance * lowest_deg);
+  const auto chosen = std::find_if(scored.begin(), scored.end(), [&](const Scored& each) {
+    return each.mean_deg <= lowest_deg + tolerance_deg;  // the lowest itself qualifies
+  });
+  Camera camera = fit_samples(chosen->camera.model_name(), {width, height}, samples, 100,
+                              &chosen->camera.params());
+  const AngularResidual residual = angular_residual(camera, rays, valid);
+  return {std::move(camera), residual};
 }
 
 }  // namespace omnipoint::camera

@@ -34,7 +34,12 @@ nlohmann::json summary(const Prediction& p) {
   if (p.fitted_camera) {
     const camera::FieldOfView fov = camera::field_of_view(*p.fitted_camera);
     json["camera"] = nlohmann::json::parse(p.fitted_camera->to_json());
+    json["camera_source"] = p.fit_residual ? "fitted" : "given";
+    if (p.fit_residual)
+      json["fit_residual_deg"] = {{"median", p.fit_residual->median_deg},
+                                  {"max", p.fit_residual->max_deg}};
     json["camera_spec"] = p.fitted_camera->to_spec();
+    json["cameras_txt_line"] = camera::cameras_txt_line(*p.fitted_camera);
     json["fov_deg"] = {{"horizontal", fov.horizontal_deg},
                        {"vertical", fov.vertical_deg},
                        {"diagonal", fov.diagonal_deg}};
@@ -248,6 +253,8 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     json["timing_ms"]["files"] = file_ms;  // part of writing
     json["timing_ms"]["writing"] = ms_since(start);
     write_text(staging / "camera.json", json.dump(2) + "\n");
+    if (p.fitted_camera)
+      write_text(staging / "cameras.txt", camera::to_cameras_txt(*p.fitted_camera));
     fs::remove_all(target);
     fs::rename(staging, target);
   } catch (...) {

@@ -20,9 +20,13 @@
 //   preview.png     the cloud from an oblique viewpoint (preview.h)
 //   mesh.glb        grid triangulation of the point map (geometry::grid_mesh) with the image's
 //                   colours, cells across depth edges skipped; only when asked for
-//   camera.json     always: the run's record — fitted camera (spec, JSON, fields of view),
-//                   metric scale, alignment, edge filter, the files written and the PNGs'
-//                   scales, notes and per-stage and per-file timing (writing included)
+//   camera.json     always, the run's record: the camera (JSON "camera", "camera_spec" MODEL W H
+//                   PARAMS, "cameras_txt_line" 1 MODEL W H PARAMS, fields of view;
+//                   "camera_source" given|fitted and, when fitted, "fit_residual_deg"
+//                   median/max), metric scale, alignment, edge filter, the files written and the
+//                   PNGs' scales, notes, warnings and per-stage and per-file timing (writing
+//                   included); `--camera camera.json` reads it back
+//   cameras.txt     the camera as a COLMAP cameras.txt (camera id 1), when there is one
 // The folder appears complete or not at all: everything is written into a temporary sibling
 // folder which is then renamed over `folder` (an older folder of that name is replaced).
 #include <ATen/core/Tensor.h>

@@ -55,20 +55,33 @@ camera::Camera camera_for_image(const camera::Camera& camera, int64_t width, int
   return camera.resized(width, height);
 }
 
-std::optional<camera::Camera> fit(const std::string& requested,
-                                  const std::optional<camera::Camera>& given,
-                                  const at::Tensor& rays, const at::Tensor& mask,
-                                  std::string* error) {
-  if (requested.empty()) return std::nullopt;
+// `model` ("auto": camera::fit_camera_auto's choice) fitted to the rays at the valid pixels of
+// `mask`; nullopt with *error set when it does not fit.
+std::optional<camera::CameraFit> fit(const std::string& model, const at::Tensor& rays,
+                                     const at::Tensor& mask, std::string* error) {
   const at::Tensor valid = mask & (rays.norm(2, -1) > 0.5);
-  const std::string name = requested != "auto" ? requested
-                           : given             ? given->model_name()
-                                               : auto_fit_model(rays, valid);
+  const int64_t width = rays.size(1), height = rays.size(0);
   try {
-    return camera::fit_camera(name, rays.size(1), rays.size(0), rays, valid);
+    return model == "auto" ? camera::fit_camera_auto(width, height, rays, valid)
+                           : camera::fit_camera_model(model, width, height, rays, valid);
   } catch (const std::invalid_argument& e) {
     *error = e.what();
     return std::nullopt;
+  }
+}
+
+// The prediction's camera: a given one as it is (the output rays are its rays) unless
+// another model is asked for; otherwise the fit of `requested` ("" = none).
+void attach_camera(const std::string& requested, const std::optional<camera::Camera>& given,
+                   Prediction* p) {
+  if (given && (requested.empty() || requested == "auto" || requested == given->model_name())) {
+    p->fitted_camera = given;
+    return;
+  }
+  if (requested.empty()) return;
+  if (auto fitted = fit(requested, p->rays, p->mask, &p->fit_error)) {
+    p->fitted_camera = std::move(fitted->camera);
+    p->fit_residual = fitted->residual;
   }
 }
 
@@ -158,8 +171,9 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
       if (sparse.lidar_points.defined()) {
         start = Clock::now();
         std::string error;
-        projection = fit("auto", std::nullopt, rays[0], first.mask[0].to(at::kCPU), &error);
+        const auto fitted = fit("auto", rays[0], first.mask[0].to(at::kCPU), &error);
         timing.camera_fit_ms += ms_since(start);
+        if (fitted) projection = fitted->camera;
         if (!projection)
           throw std::invalid_argument(
               "predict: no camera to project the point cloud through (none given, and the "
@@ -206,7 +220,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
     remove_depth_edges(p, options.edge_rtol);
     p.notes = notes;
     start = Clock::now();
-    p.fitted_camera = fit(options.fit_model, inputs.camera, p.rays, p.mask, &p.fit_error);
+    attach_camera(options.fit_model, inputs.camera, &p);
     p.timing = timing;
     p.timing.camera_fit_ms += ms_since(start);
     predictions.push_back(std::move(p));
@@ -248,15 +262,6 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
                                           ? *camera
                                           : camera_for_image(*camera, width, height);
   return geometry::sparse_depth_from_points(points, image_camera).depth.to(at::kFloat);
-}
-
-std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid) {
-  const at::Tensor z = rays.select(-1, 2).masked_select(valid);
-  if (z.numel() == 0) return "PINHOLE";
-  const double min_z = z.min().item<double>();
-  if (min_z >= std::cos(70.0 * M_PI / 180.0)) return "PINHOLE";
-  if (min_z > -0.95) return "OPENCV_FISHEYE";  // no lens sees within 18° of straight back
-  return "EQUIRECTANGULAR";
 }
 
 void remove_depth_edges(Prediction& p, double rtol) {

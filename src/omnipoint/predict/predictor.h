@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/camera/fit.h"
 
 namespace omnipoint::infer {
 class Network;
@@ -62,8 +63,10 @@ struct PredictOptions {
   std::optional<camera::Camera> camera;
   SparseDepthInput sparse_depth;
   int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (infer::Network)
-  // Camera model fitted to the predicted rays ("PINHOLE", "OPENCV_FISHEYE", ...); "auto": the
-  // given camera's model, else chosen from the predicted field of view; "": no fit.
+  // The camera reported (Prediction::fitted_camera). "auto": the given camera as it is, else
+  // the model camera::fit_camera_auto chooses by residual (camera/fit.h: the rule); a model
+  // name ("PINHOLE", "OPENCV_FISHEYE", ...): that model fitted to the output rays (a given
+  // camera of that model is reported as it is); "": no fit (a given camera is still reported).
   std::string fit_model = "auto";
   // Rescale the metric scale to the sparse depth (robust L1 fit, paper) when there is any.
   bool align_to_sparse_depth = true;
@@ -92,7 +95,12 @@ struct Prediction {
   int64_t sparse_samples = 0;       // valid sparse-depth pixels used
   double edge_rtol = 0;             // the flying-pixel filter's tolerance (0: not applied)
   int64_t edge_pixels_removed = 0;  // pixels it took out of the mask
+  // The image's camera: the given one at the image's size (the rays are its rays), else the
+  // one fitted to the rays (PredictOptions::fit_model).
   std::optional<camera::Camera> fitted_camera;
+  // Set exactly when fitted_camera was fitted: the angle between its rays and `rays` over the
+  // valid pixels (camera::angular_residual). A given camera has none: its rays are `rays`.
+  std::optional<camera::AngularResidual> fit_residual;
   std::string fit_error;           // why no camera was fitted, when fit_model asked for one
   std::vector<std::string> notes;  // what the prediction did that a user should know
   StageTimes timing;
@@ -131,11 +139,6 @@ class Model {
 // through `camera` (required for them). Zero where there is no sample.
 at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int64_t height,
                                const at::Tensor& rays, const camera::Camera* camera);
-
-// The camera model "auto" picks for predicted rays (H, W, 3) valid (H, W): PINHOLE when every
-// ray is within 70° of the axis, OPENCV_FISHEYE while none points within 18° of straight
-// back, EQUIRECTANGULAR beyond (panoramas see all around).
-std::string auto_fit_model(const at::Tensor& rays, const at::Tensor& valid);
 
 // Removes the flying pixels at depth edges (geometry::depth_edge_mask on the radial distance,
 // so wide lenses and panoramas too) from p.mask and zeroes their points, distance and depth
