@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/device.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
 #include "omnipoint/infer/infer.h"
@@ -43,7 +44,7 @@ struct EvalOptions {
 eval::Predictor model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.model).stem().string() : options.label;
-  return eval::network_predictor(infer::load_network(options.model, at::Device(options.device)),
+  return eval::network_predictor(infer::load_network(options.model, parse_device(options.device)),
                                  name, options.num_tokens);
 }
 
@@ -58,7 +59,7 @@ eval::Predictor external_predictor(const EvalOptions& options) {
     if (!fs::exists(path)) path = root / fs::path(item.dataset).filename() / (item.id + ".npy");
     if (!fs::exists(path))
       throw eval::MissingPrediction("no prediction " + (root / (item.id + ".npy")).string());
-    const at::Tensor points = io::read_npy(path.string());
+    at::Tensor points = io::read_npy(path.string());
     if (points.dim() != 3 || points.size(2) != 3 || !at::isFloatingType(points.scalar_type()))
       throw std::invalid_argument(path.string() + ": expected a float (H, W, 3) point map");
     return points;
@@ -74,7 +75,7 @@ eval::Predictor random_model_predictor(const EvalOptions& options) {
       options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
                             : options.label;
   return eval::network_predictor(
-      infer::Network(model::OmniPointModel(config), at::Device(options.device)), name,
+      infer::Network(model::OmniPointModel(config), parse_device(options.device)), name,
       options.num_tokens);
 }
 

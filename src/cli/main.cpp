@@ -1,4 +1,5 @@
 // omnipoint: the command-line tool (contract in DESIGN.md).
+#include <c10/util/Exception.h>
 #include <CLI/CLI.hpp>
 
 #include <exception>
@@ -27,6 +28,10 @@ int main(int argc, char** argv) {
     // Bad arguments: one line on stderr, like every other error (DESIGN.md).
     std::cerr << "omnipoint: error: " << e.what() << " (see --help)\n";
     return e.get_exit_code();
+  } catch (const c10::Error& e) {
+    // LibTorch's own errors carry a C++ trace after the message; users get the message.
+    std::cerr << "omnipoint: error: " << e.what_without_backtrace() << "\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "omnipoint: error: " << e.what() << "\n";
     return 1;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "cli/device.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
 #include "omnipoint/data/synth/synthesize.h"
@@ -32,9 +33,7 @@ data::synth::SynthOptions synth_options(const SynthArgs& args) {
   data::synth::SynthOptions options;
   options.render.shadows = !args.no_shadows;
   options.render.ambient_occlusion = !args.no_ao;
-  if (args.device != "cpu" && args.device != "cuda")
-    throw std::invalid_argument("--device " + args.device + ": expected cpu or cuda");
-  options.device = args.device == "cuda" ? at::Device(at::kCUDA) : at::Device(at::kCPU);
+  options.device = parse_device(args.device);
   return options;
 }
 

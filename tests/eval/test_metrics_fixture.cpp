@@ -23,6 +23,7 @@ nlohmann::json read_json(const std::string& path) {
   return nlohmann::json::parse(file);
 }
 
+// NOLINTNEXTLINE(bugprone-exception-escape): the implicit moves are those of its members.
 struct Instance {
   omnipoint::eval::GroundTruth gt;
   omnipoint::eval::Prediction pred;

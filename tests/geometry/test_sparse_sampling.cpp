@@ -236,3 +236,22 @@ TEST(SparseSampling, LidarAllAroundInAPanorama) {
   EXPECT_EQ(s.valid.sum().item<int64_t>(), 270);
   for (int64_t row : {79, 89, 99}) EXPECT_EQ(s.valid[row].sum().item<int64_t>(), 90) << row;
 }
+
+// Shrinking a sparse map keeps every sample that has a pixel of its own at the new size, and
+// where several meet, the nearest; nothing is blended.
+TEST(SparseSampling, ResizedSparseMapKeepsSamplesAndTheNearest) {
+  at::Tensor map = at::zeros({8, 8}, at::kFloat);
+  map[0][0] = 5.0;  // alone in the top-left 4x4 block
+  map[1][6] = 3.0;  // the top-right block holds two: the nearer, 2, wins
+  map[2][5] = 2.0;
+  map[7][7] = std::nanf("");  // not a sample
+  map[6][1] = -1.0;           // not a sample
+  const at::Tensor small = resize_sparse_map(map, 2, 2);
+  EXPECT_TRUE(at::equal(small, at::tensor({5.0f, 2.0f, 0.0f, 0.0f}).view({2, 2}))) << small;
+  // Growing moves each sample to the pixel holding its centre: (x + 0.5) * 3 -> 1.5 -> 1.
+  const at::Tensor large = resize_sparse_map(map, 24, 24);
+  EXPECT_EQ((large > 0).sum().item<int64_t>(), 3);
+  EXPECT_EQ(large[1][1].item<float>(), 5.0f);
+  EXPECT_EQ(large[4][19].item<float>(), 3.0f);
+  EXPECT_THROW(resize_sparse_map(at::zeros({8}), 2, 2), std::invalid_argument);
+}

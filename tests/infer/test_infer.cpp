@@ -124,6 +124,7 @@ TEST(Infer, EvalScoresWhatPredictShips) {
         predict::PredictOptions options;
         options.num_tokens = tokens;
         options.fit_model = "";
+        options.edge_rtol = 0;  // eval scores without predict's flying-pixel filter (as MoGe's)
         if (mode.intrinsics) options.camera = camera;
         if (mode.sparse_depth) {
           options.sparse_depth.depth_map = conditions.sparse_depth;

@@ -4,6 +4,8 @@
 // and +K+D are reported as not run), eval's scored point map (--save-points) equals predict's
 // points.npy for the same image, camera and sparse distances (eval's, given to predict as a
 // radial-distance map), and eval's per-sample scores equal `omnipoint metrics` on predict's files.
+// Eval scores the network's mask as MoGe's evaluation does, without the flying-pixel filter that
+// predict applies by default, so predict runs here with --edge-threshold 0.
 #include <gtest/gtest.h>
 
 #include <ATen/ATen.h>
@@ -131,7 +133,7 @@ void expect_eval_is_predict(const std::string& label, const std::string& model,
     const fs::path saved = eval_out / "points" / root.filename() / id / mode;
     const fs::path predict_out = work_dir() / label / "predict" / root.filename() / mode;
     std::string args = "predict " + (sample / "image.png").string() + " --model " + model + tokens +
-                       " --fit-model none --out " + quoted(predict_out.string());
+                       " --fit-model none --edge-threshold 0 --out " + quoted(predict_out.string());
     if (mode.find("+K") != std::string::npos) {
       const nlohmann::json meta =
           parse_json(omnipoint::test::slurp(sample / "meta.json"), "meta.json");

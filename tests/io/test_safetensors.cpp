@@ -83,7 +83,7 @@ TEST(Safetensors, FixtureLoads) {
   EXPECT_EQ(file.tensors.at("encoder.backbone.pos_embed").sizes(),
             (at::IntArrayRef{1, 1370, width}));
   EXPECT_EQ(file.tensors.at("encoder.backbone.blocks.0.attn.qkv.weight").sizes(),
-            (at::IntArrayRef{3 * width, width}));
+            (at::IntArrayRef{int64_t{3} * width, width}));
   for (const auto& [name, t] : file.tensors) {
     EXPECT_EQ(t.scalar_type(), at::kFloat) << name;
     EXPECT_TRUE(t.is_contiguous()) << name;
@@ -136,7 +136,7 @@ TEST(Safetensors, WriteAndReadWithConversion) {
 TEST(Safetensors, MalformedFilesAreRejected) {
   const std::string ok_entry = R"("a":{"dtype":"F32","shape":[2],"data_offsets":[0,8]})";
   const std::string eight(8, '\0');
-  expect_parse_error("\x05\x00", "shorter than the 8-byte header length");
+  expect_parse_error(std::string("\x05\x00", 2), "shorter than the 8-byte header length");
   expect_parse_error(std::string("\x00\x00\x00\x40\x00\x00\x00\x00", 8) + "{}",
                      "exceeds the 100 MiB cap");
   expect_parse_error(make_file("{}").substr(0, 9), "runs past the end of the file");

@@ -61,20 +61,50 @@ TEST(SparseDepthFiles, EveryFormatGivesTheSameMap) {
   const at::Tensor records =
       at::cat({lidar_points.to(at::kFloat), at::ones({lidar_points.size(0), 1})}, 1).contiguous();
   write_bytes(dir / "scan.bin", records.data_ptr<float>(), records.numel() * sizeof(float));
+  // nuScenes: x y z intensity ring.
+  const at::Tensor nuscenes =
+      at::cat({records, at::full({lidar_points.size(0), 1}, 7.0f)}, 1).contiguous();
+  write_bytes(dir / "nuscenes.bin", nuscenes.data_ptr<float>(), nuscenes.numel() * sizeof(float));
+  // KITTI depth-completion PNG: metres x 256 (quantised, so compared at its own precision below).
+  io::write_image_png((dir / "kitti.png").string(), (depth * 256).round().to(at::kInt));
+  // An ASCII PCD (PCL's v0.7 header) in the camera frame.
+  {
+    std::ofstream pcd((dir / "cloud.pcd").string());
+    pcd << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n"
+        << "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << camera_points.size(0)
+        << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << camera_points.size(0)
+        << "\nDATA ascii\n";
+    pcd.precision(9);
+    const auto p = camera_points.accessor<double, 2>();
+    for (int64_t i = 0; i < p.size(0); ++i)
+      pcd << p[i][0] << " " << p[i][1] << " " << p[i][2] << "\n";
+  }
 
   const at::Tensor expected =
       (depth / rays.select(-1, 2).to(at::kDouble)).where(picked, at::zeros_like(depth));
-  for (const auto& [file, transform] :
-       std::vector<std::pair<std::string, std::string>>{{"depth.png", ""},
-                                                        {"depth.npy", ""},
-                                                        {"cloud.ply", ""},
-                                                        {"scan.bin", "lidar_to_camera.txt"}}) {
-    const SparseDepthInput input = read_sparse_depth(
-        (dir / file).string(), transform.empty() ? "" : (dir / transform).string());
+  struct Case {
+    std::string file;
+    SparseDepthFileOptions options;
+    double tolerance = 1e-5;
+  };
+  const std::string transform = (dir / "lidar_to_camera.txt").string();
+  for (const Case& c : std::vector<Case>{{"depth.png", {}},
+                                         {"kitti.png", {256.0, 4, ""}, 0.7 / 256},
+                                         {"depth.npy", {}},
+                                         {"cloud.ply", {}},
+                                         {"cloud.pcd", {}},
+                                         {"scan.bin", {1000.0, 4, transform}},
+                                         {"nuscenes.bin", {1000.0, 5, transform}}}) {
+    const SparseDepthInput input = read_sparse_depth((dir / c.file).string(), c.options);
     const at::Tensor map = sparse_distance_map(input, 40, 30, rays, &camera);
-    EXPECT_TRUE(at::equal(map > 0, picked)) << file;
-    EXPECT_TRUE(at::allclose(map.to(at::kDouble), expected, 1e-5, 1e-5)) << file;
+    EXPECT_TRUE(at::equal(map > 0, picked)) << c.file;
+    EXPECT_TRUE(at::allclose(map.to(at::kDouble), expected, 1e-5, c.tolerance)) << c.file;
   }
+  // The KITTI PNG read as millimetres (the default) is 256/1000 of the truth: the mistake the
+  // option exists for.
+  const at::Tensor as_mm =
+      sparse_distance_map(read_sparse_depth((dir / "kitti.png").string()), 40, 30, rays, &camera);
+  EXPECT_NEAR((as_mm.sum() / expected.sum()).item<double>(), 0.256, 1e-3);
 }
 
 TEST(SparseDepthFiles, LidarPointLandsOnItsPixel) {

@@ -42,7 +42,7 @@ std::string parse_error(const Env& variables) {
   return "";
 }
 
-DistributedOptions test_options(int64_t bucket_bytes = 25 * 1024 * 1024) {
+DistributedOptions test_options(int64_t bucket_bytes = int64_t{25} * 1024 * 1024) {
   DistributedOptions options;
   options.timeout = std::chrono::seconds(30);
   options.bucket_bytes = bucket_bytes;
@@ -126,7 +126,8 @@ TEST(DistributedContextTest, UnreachableMasterFailsAfterTheTimeout) {
   options.timeout = std::chrono::milliseconds(1500);
   const auto start = std::chrono::steady_clock::now();
   try {
-    DistributedContext(DistributedEnv{1, 2, 1, "127.0.0.1", port}, options);
+    [[maybe_unused]] const DistributedContext context(DistributedEnv{1, 2, 1, "127.0.0.1", port},
+                                                      options);
     FAIL() << "joined a process group without a master";
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)),
@@ -141,7 +142,8 @@ TEST(DistributedContextTest, MasterAloneFailsAfterTheTimeout) {
   DistributedOptions options;
   options.timeout = std::chrono::milliseconds(1000);
   try {
-    DistributedContext(DistributedEnv{0, 2, 0, "127.0.0.1", port}, options);
+    [[maybe_unused]] const DistributedContext context(DistributedEnv{0, 2, 0, "127.0.0.1", port},
+                                                      options);
     FAIL() << "joined a process group of 2 alone";
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find("127.0.0.1:" + std::to_string(port)),

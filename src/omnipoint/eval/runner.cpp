@@ -85,7 +85,8 @@ at::Tensor scored_points(const GeometryPrediction& prediction) {
 Metrics score_sample(const data::Sample& sample, Split split,
                      const GeometryPrediction& prediction) {
   const auto height = sample.distance.size(0), width = sample.distance.size(1);
-  const auto expect = [&](const at::Tensor& t, const std::vector<int64_t>& shape, const char* what) {
+  const auto expect = [&](const at::Tensor& t, const std::vector<int64_t>& shape,
+                          const char* what) {
     if (!t.defined() || t.sizes() != at::IntArrayRef(shape))
       throw std::invalid_argument(std::string("prediction ") + what + ": expected shape " +
                                   c10::str(at::IntArrayRef(shape)) + ", got " +

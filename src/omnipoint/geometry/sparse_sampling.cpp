@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace omnipoint::geometry {
@@ -31,6 +32,24 @@ Flat flatten_map(const at::Tensor& dense, const at::Tensor& valid, const char* f
   const at::Tensor values = dense.reshape({batch, pixels});
   return {values, valid.reshape({batch, pixels}).logical_and(at::isfinite(values)),
           dense.sizes().vec()};
+}
+
+// init (1-D) lowered to the smallest of `values` at each position of `index`:
+// scatter_reduce(0, index, values, "amin") without that API, which LibTorch 1.13 marks beta and
+// which then warns on every run's first point cloud. Sorting by value and then stably by index
+// puts each index's minimum first in its run.
+at::Tensor scatter_amin(const at::Tensor& init, const at::Tensor& index, const at::Tensor& values) {
+  if (index.numel() == 0) return init;
+  const c10::optional<bool> stable = true;  // (a bare `true` would pick sort(dim, descending))
+  const at::Tensor by_value = std::get<1>(values.sort(stable, 0));
+  const at::Tensor order =
+      by_value.index_select(0, std::get<1>(index.index_select(0, by_value).sort(stable, 0)));
+  const at::Tensor sorted_index = index.index_select(0, order);
+  const at::Tensor first = at::ones_like(sorted_index, at::kBool);
+  first.slice(0, 1).copy_(sorted_index.slice(0, 1) != sorted_index.slice(0, 0, -1));
+  const at::Tensor targets = sorted_index.masked_select(first);
+  const at::Tensor minima = values.index_select(0, order).masked_select(first);
+  return init.index_put({targets}, at::minimum(init.index_select(0, targets), minima));
 }
 
 void check_generator(const at::Generator& generator, const char* function) {
@@ -162,16 +181,14 @@ SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const
   const double inf = std::numeric_limits<double>::infinity();
   const at::Tensor masked_error =
       at::where(candidate, error, at::full_like(error, inf)).reshape(-1);
-  const at::Tensor best = at::full({ray_items * cells}, inf, r.options())
-                              .scatter_reduce(0, cell, masked_error, "amin", /*include_self=*/true);
+  const at::Tensor best =
+      scatter_amin(at::full({ray_items * cells}, inf, r.options()), cell, masked_error);
   const at::Tensor index = at::arange(ray_items * pixels, beam.options());
   const at::Tensor ties =
       candidate.reshape(-1).logical_and(masked_error == best.index_select(0, cell));
   const int64_t none = ray_items * pixels;
-  const at::Tensor first =
-      at::full({ray_items * cells}, none, beam.options())
-          .scatter_reduce(0, cell, at::where(ties, index, at::full_like(index, none)), "amin",
-                          /*include_self=*/true);
+  const at::Tensor first = scatter_amin(at::full({ray_items * cells}, none, beam.options()), cell,
+                                        at::where(ties, index, at::full_like(index, none)));
   const at::Tensor hit =
       ties.logical_and(first.index_select(0, cell) == index).view({ray_items, pixels});
   return unflatten(flat, hit.expand({batch, pixels}).logical_and(flat.valid));
@@ -241,18 +258,31 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
           .reshape(-1);
   const double inf = std::numeric_limits<double>::infinity();
   const at::Tensor masked = at::where(ok, d, at::full_like(d, inf)).reshape(-1);
-  const at::Tensor nearest = at::full({batch * height * width}, inf, p.options())
-                                 .scatter_reduce(0, target, masked, "amin", /*include_self=*/true);
+  const at::Tensor nearest =
+      scatter_amin(at::full({batch * height * width}, inf, p.options()), target, masked);
   const at::Tensor winner = ok.reshape(-1).logical_and(masked == nearest.index_select(0, target));
   const at::Tensor stored =
-      at::full({batch * height * width}, inf, p.options())
-          .scatter_reduce(0, target, at::where(winner, v.reshape(-1), at::full_like(masked, inf)),
-                          "amin", /*include_self=*/true);
+      scatter_amin(at::full({batch * height * width}, inf, p.options()), target,
+                   at::where(winner, v.reshape(-1), at::full_like(masked, inf)));
   const at::Tensor hit = at::isfinite(nearest);
   auto shape = std::vector<int64_t>(point_shape.begin(), point_shape.end() - 1);
   shape.push_back(height);
   shape.push_back(width);
   return {at::where(hit, stored, at::zeros_like(stored)).reshape(shape), hit.reshape(shape)};
+}
+
+at::Tensor resize_sparse_map(const at::Tensor& map, std::int64_t width, std::int64_t height) {
+  if (!map.defined() || map.dim() != 2 || !at::isFloatingType(map.scalar_type()))
+    throw std::invalid_argument("resize_sparse_map: expected a floating (H, W) map");
+  const at::Tensor present = at::isfinite(map) & (map > 0);
+  const at::Tensor rows_cols = present.nonzero();  // (N, 2) row, column
+  const at::Tensor centres = rows_cols.flip(1).to(at::kDouble) + 0.5;
+  const at::Tensor scale =
+      at::tensor({double(width) / map.size(1), double(height) / map.size(0)}, at::kDouble);
+  const at::Tensor values = map.index({present}).to(at::kDouble);
+  return rasterize_nearest(centres * scale, values, values, at::ones({values.size(0)}, at::kBool),
+                           width, height)
+      .depth.to(map.scalar_type());
 }
 
 SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Camera& camera,

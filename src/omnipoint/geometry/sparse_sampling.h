@@ -42,7 +42,7 @@ struct LidarPattern {
 // The samples a LiDAR of `pattern` would return, read from the dense map: for every beam
 // direction, the pixel whose ray (from `rays` (H, W, 3) or (..., H, W, 3), unit, zero where
 // invalid — any camera model) is angularly nearest, kept when the direction falls inside
-// that pixel's footprint and the pixel is valid. Vectorised (scatter_reduce over beams).
+// that pixel's footprint and the pixel is valid. Vectorised (a minimum per beam over the pixels).
 SparseDepth sample_lidar(const at::Tensor& dense, const at::Tensor& valid, const at::Tensor& rays,
                          const LidarPattern& pattern = {});
 
@@ -64,6 +64,13 @@ enum class SparseValue { Distance, PlanarDepth };
 SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distance,
                               const at::Tensor& value, const at::Tensor& valid, std::int64_t width,
                               std::int64_t height);
+
+// A sparse map (H, W) (0 or non-finite: no sample) at another size: each sample moves to the
+// pixel of the new size that holds its pixel centre, and a pixel receiving several keeps the
+// smallest (the nearest surface). Unlike resizing it as an image, no sample is lost to the
+// subsampling grid and none is blended with its neighbours. Planar depths stay those of the
+// original pixel centres (at most half a source pixel away).
+at::Tensor resize_sparse_map(const at::Tensor& map, std::int64_t width, std::int64_t height);
 
 // A point cloud in the camera frame (..., N, 3) (e.g. LiDAR after its extrinsics), with an
 // optional validity (..., N) for padded batches, as a sparse map through any camera model:

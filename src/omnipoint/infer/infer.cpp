@@ -171,7 +171,7 @@ Result run(const Network& network, const Inputs& inputs) {
                  "field of view, predicted and merged)"
                : "MoGe-2 checkpoint: the camera is not a network input (pinhole model)");
     if (sparse.defined())
-      result.notes.push_back("MoGe-2 checkpoint: the sparse depth only aligns the metric scale");
+      result.notes.emplace_back("MoGe-2 checkpoint: the sparse depth only aligns the metric scale");
     net = wide ? run_multi_view(network, images, *inputs.camera, camera_rays, num_tokens)
                : run_moge2(network, images, num_tokens);
   }

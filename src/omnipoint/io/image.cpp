@@ -2,8 +2,11 @@
 
 #include <ATen/ATen.h>
 
+#include <set>
 #include <stdexcept>
 #include <vector>
+
+#include "omnipoint/io/file_name.h"
 
 #ifdef OMNIPOINT_WITH_OPENCV
 #include <opencv2/core.hpp>
@@ -16,6 +19,13 @@
 #endif
 
 namespace omnipoint::io {
+
+bool has_image_extension(const std::string& path) {
+  static const std::set<std::string> extensions = {
+      ".png", ".jpg", ".jpeg", ".jpe", ".webp", ".tif", ".tiff", ".bmp", ".dib",
+      ".jp2", ".pbm", ".pgm",  ".ppm", ".pnm",  ".pxm", ".sr",   ".ras"};
+  return extensions.count(lower_extension(path)) > 0;
+}
 
 #ifdef OMNIPOINT_WITH_OPENCV
 namespace {

@@ -11,6 +11,11 @@ namespace omnipoint::io {
 
 bool image_io_available();
 
+// Whether `path` has the extension of a colour image format OpenCV decodes (PNG, JPEG, WebP,
+// TIFF, BMP, JPEG 2000, PNM/PGM/PPM, Sun raster; case-insensitive): the files an input folder
+// contributes. Floating-point formats (EXR, HDR, PFM) are data, not photos, and are not listed.
+bool has_image_extension(const std::string& path);
+
 // Reads any format OpenCV decodes (PNG, JPEG, ...), 8- or 16-bit, grey, grey+alpha, RGB or
 // RGBA, as float32 (H, W, 3) RGB in [0, 1]: grey is replicated, alpha dropped, the pixels
 // are taken as stored (no EXIF rotation). Missing, corrupt or other-depth files raise

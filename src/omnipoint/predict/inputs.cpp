@@ -3,19 +3,50 @@
 
 #include <ATen/ATen.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <stdexcept>
 
+#include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/io/file_name.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
+#include "omnipoint/io/pcd.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/io/point_cloud.h"
 
 namespace omnipoint::predict {
 
 namespace {
 
-at::Tensor finite_points(const at::Tensor& points, const std::string& path) {
+at::Tensor depth_map(const std::string& path, const std::string& ext,
+                     double depth_png_units_per_metre) {
+  if (ext == ".npy") {
+    const at::Tensor depth = io::read_npy(path);
+    if (!at::isFloatingType(depth.scalar_type()))
+      throw std::invalid_argument("sparse depth " + path +
+                                  ": expected float depth in metres, got dtype " +
+                                  std::string(c10::toString(depth.scalar_type())));
+    return depth;
+  }
+  try {
+    const at::Tensor values = io::read_image_values(path);
+    return ext == ".png" ? values / depth_png_units_per_metre : values;
+  } catch (const std::runtime_error& e) {
+    if (ext != ".exr") throw;
+    // OpenCV builds EXR support in but disables it unless OPENCV_IO_ENABLE_OPENEXR is set.
+    throw std::runtime_error(
+        "sparse depth " + path + ": OpenCV could not decode this EXR (" + e.what() +
+        "); its EXR codec is off unless OPENCV_IO_ENABLE_OPENEXR=1 is set, or pass .npy");
+  }
+}
+
+at::Tensor point_cloud(const std::string& path, const std::string& ext,
+                       int64_t lidar_floats_per_point) {
+  const at::Tensor points = ext == ".ply"   ? io::read_ply(path).points
+                            : ext == ".pcd" ? io::read_pcd(path)
+                                            : io::read_lidar_bin(path, lidar_floats_per_point);
   if (points.dim() != 2 || points.size(1) != 3 || points.size(0) == 0)
     throw std::invalid_argument("sparse depth " + path + ": expected a non-empty point cloud");
   return points.to(at::kFloat);
@@ -23,55 +54,80 @@ at::Tensor finite_points(const at::Tensor& points, const std::string& path) {
 
 }  // namespace
 
-SparseDepthInput read_sparse_depth(const std::string& path,
-                                   const std::string& camera_from_lidar_path) {
+const std::vector<std::string>& sparse_depth_extensions() {
+  static const std::vector<std::string> extensions = {".png", ".npy", ".exr",
+                                                      ".ply", ".pcd", ".bin"};
+  return extensions;
+}
+
+bool is_point_cloud_file(const std::string& path) {
+  const std::string ext = io::lower_extension(path);
+  return ext == ".ply" || ext == ".pcd" || ext == ".bin";
+}
+
+SparseDepthInput read_sparse_depth(const std::string& path, const SparseDepthFileOptions& options) {
   if (!std::filesystem::is_regular_file(path))
     throw std::runtime_error("sparse depth " + path + ": no such file");
+  if (!(options.depth_png_units_per_metre > 0) || !std::isfinite(options.depth_png_units_per_metre))
+    throw std::invalid_argument("sparse depth: the depth PNG scale must be a positive number");
   const std::string ext = io::lower_extension(path);
   SparseDepthInput input;
-  if (ext == ".png" || ext == ".exr" || ext == ".npy") {
-    if (!camera_from_lidar_path.empty())
-      throw std::invalid_argument("sparse depth " + path +
-                                  ": --lidar-to-camera applies to point clouds only");
-    at::Tensor depth;
-    if (ext == ".npy") {
-      depth = io::read_npy(path);
-      if (!at::isFloatingType(depth.scalar_type()))
-        throw std::invalid_argument("sparse depth " + path +
-                                    ": expected float depth in metres, got dtype " +
-                                    std::string(c10::toString(depth.scalar_type())));
-    } else {
-      try {
-        depth = io::read_image_values(path);
-      } catch (const std::runtime_error& e) {
-        if (ext != ".exr") throw;
-        // OpenCV builds EXR support in but disables it unless OPENCV_IO_ENABLE_OPENEXR is set.
-        throw std::runtime_error(
-            "sparse depth " + path + ": OpenCV could not decode this EXR (" + e.what() +
-            "); its EXR codec is off unless OPENCV_IO_ENABLE_OPENEXR=1 is set, or pass .npy");
-      }
-      if (ext == ".png") depth = depth / 1000.0;  // millimetres
-    }
-    if (depth.dim() != 2)
-      throw std::invalid_argument("sparse depth " + path +
-                                  ": expected a single-channel (H, W) map, got " +
-                                  c10::str(depth.sizes()));
-    input.depth_map = depth.to(at::kFloat);
-    input.depth_is_planar = true;
+  if (is_point_cloud_file(path)) {
+    input.lidar_points = point_cloud(path, ext, options.lidar_floats_per_point);
+    if (!options.camera_from_lidar_path.empty())
+      input.camera_from_lidar = io::read_rigid_transform(options.camera_from_lidar_path);
     return input;
   }
-  if (ext == ".ply") {
-    input.lidar_points = finite_points(io::read_ply(path).points, path);
-  } else if (ext == ".bin") {
-    input.lidar_points = read_kitti_bin(path);
-  } else {
-    throw std::invalid_argument(
-        "sparse depth " + path +
-        ": unknown format (expected .png in mm, .npy or .exr in metres, .ply or KITTI .bin)");
-  }
-  if (!camera_from_lidar_path.empty())
-    input.camera_from_lidar = read_rigid_transform(camera_from_lidar_path);
+  if (ext != ".png" && ext != ".exr" && ext != ".npy")
+    throw std::invalid_argument("sparse depth " + path +
+                                ": unknown format (expected a depth map .png, .npy or .exr, or a "
+                                "point cloud .ply, .pcd or .bin)");
+  if (!options.camera_from_lidar_path.empty())
+    throw std::invalid_argument("sparse depth " + path +
+                                ": --lidar-to-camera applies to point clouds only");
+  const at::Tensor depth = depth_map(path, ext, options.depth_png_units_per_metre);
+  if (depth.dim() != 2)
+    throw std::invalid_argument("sparse depth " + path +
+                                ": expected a single-channel (H, W) map, got " +
+                                c10::str(depth.sizes()));
+  input.depth_map = depth.to(at::kFloat);
+  input.depth_is_planar = true;
   return input;
+}
+
+camera::ImageSize size_within(int64_t width, int64_t height, int64_t max_size) {
+  const int64_t long_side = std::max(width, height);
+  if (max_size <= 0 || long_side <= max_size) return {width, height};
+  const double scale = static_cast<double>(max_size) / long_side;
+  return {std::max<int64_t>(1, std::llround(width * scale)),
+          std::max<int64_t>(1, std::llround(height * scale))};
+}
+
+at::Tensor resize_image(const at::Tensor& image, int64_t width, int64_t height) {
+  if (image.dim() != 3 || image.size(2) != 3)
+    throw std::invalid_argument("resize_image: expected an image (H, W, 3), got " +
+                                c10::str(image.sizes()));
+  if (image.size(0) == height && image.size(1) == width) return image;
+  const bool bytes = image.scalar_type() == at::kByte;
+  const at::Tensor chw = image.to(at::kFloat).permute({2, 0, 1}).unsqueeze(0);
+  at::Tensor resized = at::_upsample_bilinear2d_aa(chw, {height, width}, /*align_corners=*/false)
+                           .squeeze(0)
+                           .permute({1, 2, 0});
+  resized = bytes ? resized.round().clamp(0, 255).to(at::kByte) : resized.clamp(0, 1);
+  return resized.contiguous();
+}
+
+SparseDepthInput resize_sparse_depth(const SparseDepthInput& input, int64_t image_width,
+                                     int64_t image_height, int64_t width, int64_t height) {
+  if (!input.depth_map.defined() || (image_width == width && image_height == height)) return input;
+  if (input.depth_map.dim() != 2 || input.depth_map.size(0) != image_height ||
+      input.depth_map.size(1) != image_width)
+    throw std::invalid_argument("sparse depth: the map is " + c10::str(input.depth_map.sizes()) +
+                                " but the image is " + std::to_string(image_height) + "x" +
+                                std::to_string(image_width) + " (H x W)");
+  SparseDepthInput resized = input;
+  resized.depth_map = geometry::resize_sparse_map(input.depth_map, width, height);
+  return resized;
 }
 
 }  // namespace omnipoint::predict

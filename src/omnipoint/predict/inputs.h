@@ -1,30 +1,54 @@
 #pragma once
 // Reading the user's sparse depth files (the `--sparse-depth` inputs of `omnipoint predict`):
-//   *.png           16-bit (or 8-bit) grey depth image in millimetres, planar depth z
+//   *.png           16-bit (or 8-bit) grey depth image, planar depth z; the stored value divided
+//                   by `depth_png_units_per_metre` is metres (1000: millimetres, the default;
+//                   256: KITTI depth completion / depth prediction PNGs)
 //   *.npy           (H, W) float depth in metres, planar depth z
 //   *.exr           32-bit float depth in metres (only where OpenCV's EXR codec is enabled)
-//   *.ply           point cloud in metres (x, y, z; other properties ignored)
-//   *.bin           KITTI Velodyne scan: float32 records x, y, z, intensity, in metres
+//   *.ply, *.pcd    point cloud in metres (x, y, z; other properties ignored; io/ply.h, io/pcd.h)
+//   *.bin           LiDAR scan of float32 records, x, y, z first (`lidar_floats_per_point`: 4 for
+//                   KITTI Velodyne x y z intensity, 5 for nuScenes x y z intensity ring)
 // Zero (or non-finite) depth means "no sample". Point clouds are in the LiDAR frame; the
-// camera-from-LiDAR transform is a 4x4 matrix file: 16 numbers (whitespace or commas,
-// row-major; a KITTI-style 3x4 "R|t" with 12 numbers is accepted too) or a .npy.
+// camera-from-LiDAR transform is read by io::read_rigid_transform (a 4x4 or 3x4 text file, a
+// KITTI calibration file, or a .npy). Without one the cloud is taken as in the camera frame.
 // Errors: std::runtime_error for unreadable files, std::invalid_argument for content that
 // is not what the format promises; each names the file.
 #include <ATen/core/Tensor.h>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
-#include "omnipoint/io/point_cloud.h"
 #include "omnipoint/predict/predictor.h"
 
 namespace omnipoint::predict {
 
-SparseDepthInput read_sparse_depth(const std::string& path,
-                                   const std::string& camera_from_lidar_path = "");
+struct SparseDepthFileOptions {
+  double depth_png_units_per_metre = 1000.0;
+  int64_t lidar_floats_per_point = 4;
+  std::string camera_from_lidar_path;  // empty: the cloud is in the camera frame
+};
 
-// The LiDAR file readers live in io (io/point_cloud.h): the (4, 4) float64 camera-from-LiDAR
-// transform and a KITTI .bin scan as (N, 3) float32 points.
-using io::read_kitti_bin;
-using io::read_rigid_transform;
+SparseDepthInput read_sparse_depth(const std::string& path,
+                                   const SparseDepthFileOptions& options = {});
+
+// Whether `path` is one of the point-cloud formats above (rather than a depth map).
+bool is_point_cloud_file(const std::string& path);
+
+// The extensions a sparse-depth folder is searched for, in order of preference.
+const std::vector<std::string>& sparse_depth_extensions();
+
+// --max-size: the size of a width x height image whose long side is at most max_size (0: no
+// limit), the aspect ratio kept (sides rounded, at least 1).
+camera::ImageSize size_within(int64_t width, int64_t height, int64_t max_size);
+// An image (H, W, 3) (float in [0, 1] or uint8) at width x height: anti-aliased bilinear (no
+// aliasing when shrinking by large factors). The camera needs no counterpart: predict resizes a
+// camera of the image's aspect ratio itself (Camera::resized).
+at::Tensor resize_image(const at::Tensor& image, int64_t width, int64_t height);
+// The sparse depth of an image_width x image_height image at width x height, with the image:
+// depth maps (which must be at the image's size) through geometry::resize_sparse_map (no sample
+// lost or blended); point clouds unchanged (they are projected at the new size).
+SparseDepthInput resize_sparse_depth(const SparseDepthInput& input, int64_t image_width,
+                                     int64_t image_height, int64_t width, int64_t height);
 
 }  // namespace omnipoint::predict

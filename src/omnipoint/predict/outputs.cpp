@@ -21,6 +21,7 @@
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/predict/colmap_scene.h"
 #include "omnipoint/predict/preview.h"
 
 namespace omnipoint::predict {
@@ -52,6 +53,7 @@ nlohmann::json summary(const Prediction& p) {
   json["valid_pixels"] = p.mask.sum().item<int64_t>();
   json["edge_filter"] = {{"rtol", p.edge_rtol}, {"removed_pixels", p.edge_pixels_removed}};
   json["notes"] = p.notes;
+  json["warnings"] = p.warnings;
   json["timing_ms"] = {{"prepare", p.timing.prepare_ms},
                        {"network", p.timing.network_ms},
                        {"alignment", p.timing.alignment_ms},
@@ -197,13 +199,23 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
       file_ms[file] = ms_since(file_start);
     };
     geometry::PointCloud cloud;  // the valid points, shared by the PLY, the GLB and the preview
-    if (wanted("points.ply") || wanted("points.glb") || wanted("preview.png")) {
+    const bool world = options.camera_from_world.defined();
+    if (wanted("points.ply") || wanted("points.glb") || wanted("preview.png") || world) {
       const auto cloud_start = std::chrono::steady_clock::now();
       cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
       json["timing_ms"]["valid_points"] = ms_since(cloud_start);
     }
     produce("points.ply",
             [&](const std::string& path) { io::write_ply(path, cloud.points, cloud.colors); });
+    if (world) {
+      const auto world_start = std::chrono::steady_clock::now();
+      io::write_ply((staging / "points_world.ply").string(),
+                    world_points(cloud.points, options.camera_from_world), cloud.colors);
+      file_ms["points_world.ply"] = ms_since(world_start);
+      const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
+      json["camera_from_world"] =
+          std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
+    }
     produce("points.glb", [&](const std::string& path) {
       io::write_glb_points(path, cloud.points, cloud.colors);
     });
@@ -249,6 +261,7 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     });
     std::set<std::string> written = options.files;
     written.insert("camera.json");
+    if (world) written.insert("points_world.ply");
     json["files"] = written;
     json["timing_ms"]["files"] = file_ms;  // part of writing
     json["timing_ms"]["writing"] = ms_since(start);

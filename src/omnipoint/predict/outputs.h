@@ -18,6 +18,8 @@
 //                   the range or under half a unit); camera.json gives scale, range and counts.
 //   depth_vis.png   colour-mapped inverse depth (distance, so panoramas colour too)
 //   preview.png     the cloud from an oblique viewpoint (preview.h)
+//   points_world.ply  with a camera-from-world pose (OutputOptions): the valid points in that
+//                   world frame (`predict --colmap`: the reconstruction's frame and units)
 //   mesh.glb        grid triangulation of the point map (geometry::grid_mesh) with the image's
 //                   colours, cells across depth edges skipped; only when asked for
 //   camera.json     always, the run's record: the camera (JSON "camera", "camera_spec" MODEL W H
@@ -47,6 +49,9 @@ struct OutputOptions {
   // (geometry::depth_edge_mask; 0: none). After predict's filter at the same tolerance there
   // are none left; this keeps the mesh clean when that filter was off.
   double mesh_edge_rtol = kDefaultEdgeRtol;
+  // A (4, 4) camera-from-world pose (a COLMAP image's): points_world.ply is written too, the
+  // valid points in that world frame, and camera.json records the pose.
+  at::Tensor camera_from_world;
 };
 
 // The `--outputs` list: comma-separated group names or file names, e.g. "ply,npy,mesh":

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <utility>
 
@@ -158,6 +159,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
 
   // The sparse depth as radial distances needs rays (planar maps) or a camera (point clouds);
   // without a given camera they come from a first run without sparse depth.
+  at::Tensor sparse_in_image;  // (B) pixels with a sample
   if (!sparse.empty()) {
     at::Tensor rays;  // (B,H,W,3)
     std::optional<camera::Camera> projection = inputs.camera;
@@ -194,6 +196,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
                                          projection ? &*projection : nullptr));
     }
     inputs.sparse_distance = at::stack(maps).to(network.device());
+    sparse_in_image = (inputs.sparse_distance > 0).flatten(1).sum(1).to(at::kCPU);
     timing.prepare_ms += ms_since(start);
   }
 
@@ -217,12 +220,18 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
     Prediction p = prediction({rays[b], distance[b], points[b], mask[b]}, scale[b].item<double>());
     p.alignment_factor = factor[b].item<double>();
     p.sparse_samples = samples[b].item<int64_t>();
-    remove_depth_edges(p, options.edge_rtol);
     p.notes = notes;
+    if (sparse_in_image.defined())
+      p.warnings = sparse_depth_warnings(
+          sparse_in_image[b].item<int64_t>(),
+          sparse.lidar_points.defined() ? sparse.lidar_points.size(0) : 0, p.sparse_samples,
+          p.alignment_factor, options.sparse_depth_is_metric);
     start = Clock::now();
     attach_camera(options.fit_model, inputs.camera, &p);
     p.timing = timing;
     p.timing.camera_fit_ms += ms_since(start);
+    // After the fit: flying pixels have wrong distances but their rays are as good as any.
+    remove_depth_edges(p, options.edge_rtol);
     predictions.push_back(std::move(p));
   }
   return predictions;
@@ -262,6 +271,31 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
                                           ? *camera
                                           : camera_for_image(*camera, width, height);
   return geometry::sparse_depth_from_points(points, image_camera).depth.to(at::kFloat);
+}
+
+std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_points, int64_t used,
+                                               double alignment_factor,
+                                               bool sparse_depth_is_metric) {
+  std::vector<std::string> warnings;
+  const auto count = [](int64_t n) { return std::to_string(n); };
+  if (cloud_points > 0 && (in_image < 20 || in_image * 200 < cloud_points))
+    warnings.push_back("only " + count(in_image) + " of the point cloud's " + count(cloud_points) +
+                       " points land in the image: is the cloud in the camera frame? (pass "
+                       "--lidar-to-camera, or check the transform's direction)");
+  if (used == 0) {
+    warnings.push_back(
+        "no sparse depth sample falls where the prediction is valid: the metric "
+        "scale is the network's own, not aligned");
+  } else if (sparse_depth_is_metric && (alignment_factor > 3.0 || alignment_factor < 1.0 / 3.0)) {
+    std::ostringstream factor;
+    factor.precision(3);
+    factor << alignment_factor;
+    warnings.push_back("the sparse depth's scale disagrees with the prediction's by a factor of " +
+                       factor.str() +
+                       ": check its units (--depth-scale: 1000 for millimetre PNGs, 256 for KITTI) "
+                       "and the LiDAR transform");
+  }
+  return warnings;
 }
 
 void remove_depth_edges(Prediction& p, double rtol) {

@@ -73,6 +73,9 @@ struct PredictOptions {
   // Flying-pixel removal (remove_depth_edges): pixels at a depth discontinuity of more than
   // this relative tolerance leave the mask; 0: off.
   double edge_rtol = kDefaultEdgeRtol;
+  // false: the sparse depth is in arbitrary units (a COLMAP reconstruction's), so the prediction
+  // takes its scale and a far-from-1 alignment factor is expected, not a warning.
+  bool sparse_depth_is_metric = true;
 };
 
 // Wall-clock milliseconds per stage of one predict call.
@@ -99,10 +102,12 @@ struct Prediction {
   // one fitted to the rays (PredictOptions::fit_model).
   std::optional<camera::Camera> fitted_camera;
   // Set exactly when fitted_camera was fitted: the angle between its rays and `rays` over the
-  // valid pixels (camera::angular_residual). A given camera has none: its rays are `rays`.
+  // pixels valid before the flying-pixel filter (camera::angular_residual; the fit uses them
+  // too: their rays are as good as any). A given camera has none: its rays are `rays`.
   std::optional<camera::AngularResidual> fit_residual;
-  std::string fit_error;           // why no camera was fitted, when fit_model asked for one
-  std::vector<std::string> notes;  // what the prediction did that a user should know
+  std::string fit_error;              // why no camera was fitted, when fit_model asked for one
+  std::vector<std::string> notes;     // what the prediction did that a user should know
+  std::vector<std::string> warnings;  // inputs that look wrong (sparse_depth_warnings)
   StageTimes timing;
 };
 
@@ -139,6 +144,16 @@ class Model {
 // through `camera` (required for them). Zero where there is no sample.
 at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int64_t height,
                                const at::Tensor& rays, const camera::Camera* camera);
+
+// What looks wrong about a sparse depth input, given how many samples it had in the image
+// (`in_image`: pixels of its distance map; for a point cloud out of `cloud_points` points) and
+// how many the prediction used with what alignment factor: no usable sample (nothing aligned),
+// a point cloud of which almost nothing lands in the image (< 0.5 % of its points, or < 20: the
+// wrong frame or transform), and metric sparse depth whose scale disagrees with the network's
+// by more than 3x (wrong units such as a KITTI PNG read as millimetres, or a wrong transform).
+std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_points, int64_t used,
+                                               double alignment_factor,
+                                               bool sparse_depth_is_metric);
 
 // Removes the flying pixels at depth edges (geometry::depth_edge_mask on the radial distance,
 // so wide lenses and panoramas too) from p.mask and zeroes their points, distance and depth
