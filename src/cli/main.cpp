@@ -35,6 +35,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "omnipoint: error: " << e.what() << "\n";
     return 1;
+  } catch (...) {
+    std::cerr << "omnipoint: error: an unknown exception\n";
+    return 1;
   }
   return 0;
 }

@@ -30,7 +30,7 @@ std::string shape_of(const at::Tensor& t) {
 
 // Reads a float32/float64 map of H×W (channels = 0) or H×W×channels.
 at::Tensor read_map(const std::string& path, const std::string& option, int64_t channels) {
-  const at::Tensor t = io::read_npy(path);
+  at::Tensor t = io::read_npy(path);
   if (t.scalar_type() != at::kFloat && t.scalar_type() != at::kDouble) {
     throw std::invalid_argument(option + " " + path +
                                 ": expected a float32 or float64 array, got dtype " +

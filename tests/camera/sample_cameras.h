@@ -26,10 +26,12 @@ inline const std::vector<std::string>& sample_camera_specs() {
       "OPENCV_FISHEYE 640 480 287.4 286.9 322.1 238.9 -0.012 0.0047 -0.0021 0.0003",
       "SIMPLE_RADIAL_FISHEYE 640 480 205.3 320.4 239.2 -0.031",
       "RADIAL_FISHEYE 640 480 198.6 318.7 240.8 -0.024 0.0016",
+      // NOLINTBEGIN(bugprone-suspicious-missing-comma): long specs continue on the next line.
       "THIN_PRISM_FISHEYE 640 480 190.2 189.7 321.5 238.4 0.021 -0.0035 0.0004 -0.0003 0.0006 "
       "-0.0001 0.0005 -0.0002",
       "RAD_TAN_THIN_PRISM_FISHEYE 640 480 182.5 182.9 319.8 241.2 0.045 -0.012 0.0015 -0.0001 "
       "0.00001 -0.0000005 0.0003 -0.0002 0.0004 -0.00005 -0.0003 0.00004",
+      // NOLINTEND(bugprone-suspicious-missing-comma)
       "MEI 640 480 420.5 419.3 321.4 238.7 1.35 -0.12 0.05 0.0006 -0.0004",
       "UCM 640 480 161.3 160.8 318.6 242.3 0.55",
       "EUCM 640 480 180.2 179.9 321.7 239.4 0.58 1.08",

@@ -13,43 +13,17 @@
 
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/glb.h"
+#include "support/glb_chunks.h"
 
 namespace omnipoint::io {
 namespace {
 
-uint32_t u32_at(const std::string& bytes, size_t offset) {
-  uint32_t value;
-  std::memcpy(&value, bytes.data() + offset, 4);
-  return value;
-}
-
-struct Glb {
-  nlohmann::json gltf;
-  std::string bin;
-};
-
-// Checks the container and splits it into its two chunks.
-Glb parse(const std::string& glb) {
-  Glb parsed;
-  EXPECT_EQ(glb.substr(0, 4), "glTF");
-  EXPECT_EQ(u32_at(glb, 4), 2u);
-  EXPECT_EQ(u32_at(glb, 8), glb.size());
-  const uint32_t json_length = u32_at(glb, 12);
-  EXPECT_EQ(u32_at(glb, 16), 0x4E4F534Au);
-  EXPECT_EQ(json_length % 4, 0u);
-  parsed.gltf = nlohmann::json::parse(glb.substr(20, json_length));
-  const size_t bin_header = 20 + json_length;
-  if (bin_header == glb.size()) return parsed;
-  const uint32_t bin_length = u32_at(glb, bin_header);
-  EXPECT_EQ(u32_at(glb, bin_header + 4), 0x004E4942u);
-  EXPECT_EQ(bin_length % 4, 0u);
-  EXPECT_EQ(bin_header + 8 + bin_length, glb.size());
-  parsed.bin = glb.substr(bin_header + 8, bin_length);
-  return parsed;
-}
+using test::GlbChunks;
+using test::parse_glb;
+using test::u32_at;
 
 template <typename T>
-at::Tensor view_at(const Glb& glb, const nlohmann::json& accessor, int64_t columns,
+at::Tensor view_at(const GlbChunks& glb, const nlohmann::json& accessor, int64_t columns,
                    at::ScalarType dtype) {
   const nlohmann::json& view = glb.gltf["bufferViews"][accessor["bufferView"].get<int>()];
   const int64_t count = accessor["count"].get<int64_t>();
@@ -68,7 +42,7 @@ TEST(GlbMesh, ParsesBackToTheMesh) {
           .view({5, 3});
   const at::Tensor colors = at::arange(15, at::kByte).view({5, 3});
   const at::Tensor faces = at::tensor({0, 1, 2, 2, 1, 3}, at::kLong).view({2, 3});
-  const Glb glb = parse(encode_glb_mesh(vertices, colors, faces));
+  const GlbChunks glb = parse_glb(encode_glb_mesh(vertices, colors, faces));
   const auto& gltf = glb.gltf;
   EXPECT_EQ(gltf["asset"]["version"], "2.0");
   const auto& primitive = gltf["meshes"][0]["primitives"][0];
@@ -102,7 +76,8 @@ TEST(GlbMesh, ParsesBackToTheMesh) {
 }
 
 TEST(GlbMesh, NoTrianglesGivesAnEmptyScene) {
-  const Glb glb = parse(encode_glb_mesh(at::zeros({4, 3}), {}, at::zeros({0, 3}, at::kInt)));
+  const GlbChunks glb =
+      parse_glb(encode_glb_mesh(at::zeros({4, 3}), {}, at::zeros({0, 3}, at::kInt)));
   EXPECT_FALSE(glb.gltf["nodes"][0].contains("mesh"));
   EXPECT_TRUE(glb.bin.empty());
 }

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -186,8 +187,11 @@ TEST(ColmapPredict, GroundTruthDistancesLandOnTheTransformedScene) {
       EXPECT_NEAR(factor, kScale, 1e-3 * kScale);
       const Prediction p =
           prediction_from_geometry(r.rays, truth.distance * factor, truth.mask, factor);
-      EXPECT_LE(median_relative_error(world_points(p.points, view->camera_from_world), truth),
-                0.005);
+      const double error =
+          median_relative_error(world_points(p.points, view->camera_from_world), truth);
+      EXPECT_LE(error, 0.005);
+      std::printf("%s (%s): alignment %.6f, median relative error %.2e\n", truth.name.c_str(),
+                  binary ? "bin" : "txt", factor, error);
     }
   }
   EXPECT_EQ(ColmapScene(r.model).find("elsewhere.png"), nullptr);
@@ -224,6 +228,7 @@ TEST(ColmapPredict, BundledModelRecoversTheReconstructionScale) {
             .median()
             .item<double>();
     EXPECT_NEAR(recovered, kScale, 0.1 * kScale);
+    std::printf("%s: recovered scale %.4f (applied %.2f)\n", view.name.c_str(), recovered, kScale);
     // The world-frame points of the image are its points moved by the inverse pose.
     const io::PlyPoints world = io::read_ply((out / "points_world.ply").string());
     EXPECT_EQ(world.points.size(0), (distance > 0).sum().item<int64_t>());

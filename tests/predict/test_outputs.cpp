@@ -25,6 +25,7 @@
 #include "omnipoint/predict/outputs.h"
 #include "omnipoint/predict/predictor.h"
 #include "support/fast_synth.h"
+#include "support/glb_chunks.h"
 
 namespace omnipoint::predict {
 namespace {
@@ -43,11 +44,7 @@ fs::path fresh_dir(const std::string& name) {
   return dir;
 }
 
-uint32_t u32_at(const std::string& bytes, size_t offset) {
-  uint32_t value;
-  std::memcpy(&value, bytes.data() + offset, 4);
-  return value;
-}
+using test::u32_at;
 
 TEST(PredictOutputs, OracleFilesRoundTrip) {
   const data::synth::SynthSample synth = render("PINHOLE 64 48 52 52 32 24");
@@ -114,28 +111,18 @@ TEST(PredictOutputs, OracleFilesRoundTrip) {
 
   // GLB: header, 4-byte aligned chunks, accessor counts, positions (x, -y, -z).
   const std::string glb = io::read_file((folder / "points.glb").string());
-  ASSERT_GE(glb.size(), 28u);
-  EXPECT_EQ(glb.substr(0, 4), "glTF");
-  EXPECT_EQ(u32_at(glb, 4), 2u);
-  EXPECT_EQ(u32_at(glb, 8), glb.size());
-  const uint32_t json_length = u32_at(glb, 12);
-  EXPECT_EQ(u32_at(glb, 16), 0x4E4F534Au);
-  EXPECT_EQ(json_length % 4, 0u);
-  const auto gltf = nlohmann::json::parse(glb.substr(20, json_length));
-  const size_t bin_header = 20 + json_length;
-  const uint32_t bin_length = u32_at(glb, bin_header);
-  EXPECT_EQ(u32_at(glb, bin_header + 4), 0x004E4942u);
-  EXPECT_EQ(bin_length % 4, 0u);
-  EXPECT_EQ(bin_header + 8 + bin_length, glb.size());
+  const test::GlbChunks chunks = test::parse_glb(glb);
+  const nlohmann::json& gltf = chunks.gltf;
   EXPECT_EQ(gltf["asset"]["version"], "2.0");
   EXPECT_EQ(gltf["meshes"][0]["primitives"][0]["mode"], 0);
   const int64_t count = valid_points.size(0);
   EXPECT_EQ(gltf["accessors"][0]["count"].get<int64_t>(), count);
   EXPECT_EQ(gltf["accessors"][1]["count"].get<int64_t>(), count);
   EXPECT_EQ(gltf["bufferViews"][0]["byteLength"].get<int64_t>(), count * 12);
-  EXPECT_EQ(gltf["buffers"][0]["byteLength"].get<uint32_t>(), bin_length);
+  EXPECT_EQ(gltf["buffers"][0]["byteLength"].get<size_t>(), chunks.bin.size());
+  ASSERT_GE(chunks.bin.size(), size_t(count * 12));
   at::Tensor positions = at::empty({count, 3}, at::kFloat);
-  std::memcpy(positions.data_ptr<float>(), glb.data() + bin_header + 8, count * 12);
+  std::memcpy(positions.data_ptr<float>(), chunks.bin.data(), count * 12);
   EXPECT_TRUE(at::allclose(positions, valid_points * at::tensor({1.0f, -1.0f, -1.0f}), 1e-6, 1e-6));
 }
 

@@ -152,7 +152,7 @@ void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt,
                    const at::Tensor& lr_flat) {
   const bool metric = gt.is_metric && pred.is_metric;
   std::vector<std::string> names;
-  if (metric) names.push_back("points_metric");
+  if (metric) names.emplace_back("points_metric");
   for (const char* name : {"points_scale_invariant", "points_affine_invariant"})
     names.push_back(name);
   auto undefined = [&](const std::string& reason) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <utility>
 
 #include "omnipoint/geometry/points.h"
 
@@ -24,7 +25,8 @@ Predictor network_predictor(infer::Network network, const std::string& name, int
   predictor.name = name;
   predictor.accepts_intrinsics = static_cast<bool>(network.omnipoint());
   predictor.accepts_sparse_depth = true;
-  predictor.predict = [network, num_tokens](const EvalSample& item, const Conditions& conditions) {
+  predictor.predict = [network = std::move(network), num_tokens](const EvalSample& item,
+                                                                 const Conditions& conditions) {
     infer::Inputs inputs;
     inputs.images = item.sample.image.permute({2, 0, 1}).unsqueeze(0);
     if (conditions.rays.defined()) inputs.camera = item.sample.camera;

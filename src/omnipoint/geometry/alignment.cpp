@@ -472,7 +472,8 @@ std::vector<int64_t> batch_shape_of(const at::Tensor& t, int64_t sample_dims) {
   return t.sizes().slice(0, t.dim() - sample_dims).vec();
 }
 
-AffineFit reshape_affine(AffineFit fit, const std::vector<int64_t>& batch_shape, bool points) {
+AffineFit reshape_affine(const AffineFit& fit, const std::vector<int64_t>& batch_shape,
+                         bool points) {
   std::vector<int64_t> shift_shape = batch_shape;
   if (points) shift_shape.push_back(3);
   return {fit.scale.reshape(batch_shape), fit.shift.reshape(shift_shape),

@@ -166,7 +166,7 @@ Result run(const Network& network, const Inputs& inputs) {
   } else {
     result.multi_view = wide;
     if (inputs.camera)
-      result.notes.push_back(
+      result.notes.emplace_back(
           wide ? "MoGe-2 checkpoint on a wide camera: multi-view mode (pinhole views tiling the "
                  "field of view, predicted and merged)"
                : "MoGe-2 checkpoint: the camera is not a network input (pinhole model)");

@@ -109,7 +109,7 @@ Header parse_header(const std::string& bytes, const std::string& name) {
   bool have_format = false, in_vertex = false, seen_element = false;
   while (true) {
     const std::size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos || end > kMaxHeaderBytes)
+    if (end > kMaxHeaderBytes)  // npos (no newline at all) included
       fail("no end_header line in the first 64 KiB");
     std::string line = bytes.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();

@@ -144,7 +144,7 @@ EncoderOutput OmniPointModelImpl::encode(const OmniPointInputs& inputs, const To
   TokenConditioning conditions = condition_tokens(inputs, grid);
   at::Tensor tokens = encoder->backbone->prepare_tokens(encoder->preprocess(inputs.image, grid));
   if (conditions.offset.defined()) tokens = tokens + conditions.offset;
-  const EncoderOutput encoded = encoder->project(
+  EncoderOutput encoded = encoder->project(
       encoder->backbone->intermediate_layers(tokens, config_.encoder.intermediate_layers), grid);
   if (conditioning) *conditioning = std::move(conditions);
   return encoded;

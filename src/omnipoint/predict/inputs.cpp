@@ -23,7 +23,7 @@ namespace {
 at::Tensor depth_map(const std::string& path, const std::string& ext,
                      double depth_png_units_per_metre) {
   if (ext == ".npy") {
-    const at::Tensor depth = io::read_npy(path);
+    at::Tensor depth = io::read_npy(path);
     if (!at::isFloatingType(depth.scalar_type()))
       throw std::invalid_argument("sparse depth " + path +
                                   ": expected float depth in metres, got dtype " +

@@ -182,7 +182,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
               "predicted rays fit none: " +
               error + "); pass the camera");
       }
-      notes.push_back(
+      notes.emplace_back(
           "sparse depth converted with the predicted camera (none given); a first pass without it "
           "ran");
     }
@@ -283,7 +283,7 @@ std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_p
                        " points land in the image: is the cloud in the camera frame? (pass "
                        "--lidar-to-camera, or check the transform's direction)");
   if (used == 0) {
-    warnings.push_back(
+    warnings.emplace_back(
         "no sparse depth sample falls where the prediction is valid: the metric "
         "scale is the network's own, not aligned");
   } else if (sparse_depth_is_metric && (alignment_factor > 3.0 || alignment_factor < 1.0 / 3.0)) {
