@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 
 at::Tensor example_depth() {
-  auto depth = at::linspace(0.5, 80.0, 12 * 10, at::kDouble).reshape({12, 10}).to(at::kFloat);
+  auto depth =
+      at::linspace(0.5, 80.0, int64_t{12} * 10, at::kDouble).reshape({12, 10}).to(at::kFloat);
   depth[0][1] = NAN;
   depth[1][2] = INFINITY;
   return depth;

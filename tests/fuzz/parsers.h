@@ -136,16 +136,18 @@ inline Parser rigid_transform_parser() {
   return {"rigid_transform",
           [](const std::string& b, const std::string& s) { io::parse_rigid_transform(b, s); }};
 }
-// A camera file (cameras.txt or JSON); the same bytes as a --camera spec string and as a file
-// with a camera id.
+// A camera file (cameras.txt or JSON); the same bytes as a --camera spec string, as a file with
+// a camera id and as a file read with an image size.
 inline Parser camera_parser() {
-  return {"camera",
-          [](const std::string& b, const std::string& s) { camera::parse_camera_file(b, s); },
-          [](const std::string& b, const std::string& s) {
-            within_contract([&] { camera::parse_camera(b); });
-            within_contract([&] { camera::is_camera_line(b); });
-            within_contract([&] { camera::parse_camera_file(b, s, "1"); });
-          }};
+  return {
+      "camera", [](const std::string& b, const std::string& s) { camera::parse_camera_file(b, s); },
+      [](const std::string& b, const std::string& s) {
+        within_contract([&] { camera::parse_camera(b); });
+        within_contract([&] { camera::is_camera_line(b); });
+        within_contract([&] { camera::parse_camera_file(b, s, "1"); });
+        // With the image's size, as predict reads size-less files (UniK3D's JSON).
+        within_contract([&] { camera::parse_camera_file(b, s, "", camera::ImageSize{64, 48}); });
+      }};
 }
 inline Parser train_config_parser() {
   return {"train_config",

@@ -123,7 +123,7 @@ TEST(SparseSampling, LidarScanLinesOnAPinholeCamera) {
       const double x = std::cos(el) * std::sin(az), y = -std::sin(el),
                    z = std::cos(el) * std::cos(az);
       const double u = f * x / z + w / 2.0, v = f * y / z + h / 2.0;
-      if (u >= 1 && u < w - 1 && v >= 1 && v < h - 1) expected.push_back({u, v});
+      if (u >= 1 && u < w - 1 && v >= 1 && v < h - 1) expected.emplace_back(u, v);
     }
   }
   ASSERT_GT(expected.size(), 1000u);

@@ -63,7 +63,7 @@ TEST(Ply, BinaryRoundTripWithAndWithoutColours) {
       "property float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar "
       "green\n"
       "property uchar blue\nend_header\n";
-  EXPECT_EQ(size, header.size() + 15 * 1000);
+  EXPECT_EQ(size, header.size() + size_t{15} * 1000);
   // An empty cloud is a valid file.
   write_ply((dir / "e.ply").string(), at::zeros({0, 3}));
   EXPECT_EQ(read_ply((dir / "e.ply").string()).points.size(0), 0);

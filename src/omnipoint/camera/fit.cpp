@@ -202,10 +202,10 @@ CameraFit fit_camera_model(const std::string& model, int64_t width, int64_t heig
 
 std::vector<std::string> auto_fit_candidates(double max_angle_deg) {
   std::vector<std::string> names;
-  if (max_angle_deg < 80) names.push_back("PINHOLE");
-  if (max_angle_deg >= 60) names.push_back("EQUIRECTANGULAR");
-  if (max_angle_deg < 150) names.push_back("UCM");
-  if (max_angle_deg < 150) names.push_back("OPENCV_FISHEYE");
+  if (max_angle_deg < 80) names.emplace_back("PINHOLE");
+  if (max_angle_deg >= 60) names.emplace_back("EQUIRECTANGULAR");
+  if (max_angle_deg < 150) names.emplace_back("UCM");
+  if (max_angle_deg < 150) names.emplace_back("OPENCV_FISHEYE");
   return names;
 }
 

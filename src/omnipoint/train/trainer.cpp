@@ -143,11 +143,11 @@ void Trainer::configure_stage(int index) {
   if (!backbone_params.empty()) {
     groups.emplace_back(backbone_params, std::make_unique<torch::optim::AdamWOptions>(defaults));
     group_names_.push_back(backbone);
-    group_kinds_.push_back("backbone");
+    group_kinds_.emplace_back("backbone");
   }
   groups.emplace_back(head_params, std::make_unique<torch::optim::AdamWOptions>(defaults));
   group_names_.push_back(heads);
-  group_kinds_.push_back("heads");
+  group_kinds_.emplace_back("heads");
   optimizer_ = std::make_unique<torch::optim::AdamW>(std::move(groups), defaults);
   current_stage_ = index;
 }
@@ -173,10 +173,9 @@ StepRecord Trainer::train_step() {
   if (index != current_stage_) configure_stage(index);
   const StageConfig& stage = config_.stages[index];
   const int64_t in_stage = step_ - stage_start(index);
-  const double decay =
-      stage.decay_every > 0
-          ? std::pow(stage.decay_factor, static_cast<double>(in_stage / stage.decay_every))
-          : 1.0;
+  // Step decay: one factor per whole decay_every steps (integer division on purpose).
+  const int64_t decays = stage.decay_every > 0 ? in_stage / stage.decay_every : 0;
+  const double decay = std::pow(stage.decay_factor, static_cast<double>(decays));
   StepRecord record;
   record.stage = stage.stage;
   record.lr_backbone = stage.lr_backbone * decay;
