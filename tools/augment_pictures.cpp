@@ -5,6 +5,7 @@
 #include <ATen/CPUGeneratorImpl.h>
 
 #include <cmath>
+#include <exception>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -59,7 +60,7 @@ augment::Teacher oracle(const data::synth::Scene& scene, const at::Tensor& rotat
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   if (argc != 2) {
     std::cerr << "usage: augment_pictures OUT_DIR\n";
     return 1;
@@ -125,4 +126,13 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < merged.view_scales.size(); ++i)
     std::cout << "view " << i << " scale " << merged.view_scales[i] << "\n";
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "augment_pictures: error: " << e.what() << "\n";
+    return 1;
+  }
 }

@@ -34,7 +34,7 @@ at::Tensor read_image_array(const std::string& path) {
     throw std::invalid_argument("input " + path +
                                 ": expected float32 RGB values in [0,1], got dtype " +
                                 std::string(c10::toString(array.scalar_type())));
-  const at::Tensor image = array.to(at::kFloat);
+  at::Tensor image = array.to(at::kFloat);
   if (!at::isfinite(image).all().item<bool>() || image.min().item<float>() < 0 ||
       image.max().item<float>() > 1)
     throw std::invalid_argument("input " + path +

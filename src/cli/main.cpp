@@ -2,12 +2,15 @@
 #include <c10/util/Exception.h>
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <exception>
 #include <iostream>
 
 #include "cli/commands.h"
 
-int main(int argc, char** argv) {
+// A function-try-block: nothing escapes main, not even from setting the commands up or from
+// printing an error.
+int main(int argc, char** argv) try {
   CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
@@ -40,4 +43,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+} catch (...) {
+  std::fputs("omnipoint: error: the command line could not be set up or reported\n", stderr);
+  return 1;
 }

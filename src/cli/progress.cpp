@@ -3,27 +3,23 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
 
 namespace omnipoint::cli {
 
-namespace {
-
 std::string clock_time(double seconds) {
-  const auto total = static_cast<int64_t>(seconds + 0.5);
+  const long long total = std::llround(std::max(seconds, 0.0));
   char text[32];
   if (total >= 3600)
-    std::snprintf(text, sizeof(text), "%ld:%02ld:%02ld", static_cast<long>(total / 3600),
-                  static_cast<long>(total / 60 % 60), static_cast<long>(total % 60));
+    std::snprintf(text, sizeof(text), "%lld:%02lld:%02lld", total / 3600, total / 60 % 60,
+                  total % 60);
   else
-    std::snprintf(text, sizeof(text), "%ld:%02ld", static_cast<long>(total / 60),
-                  static_cast<long>(total % 60));
+    std::snprintf(text, sizeof(text), "%lld:%02lld", total / 60, total % 60);
   return text;
 }
-
-}  // namespace
 
 Progress::Progress(int64_t total)
     : total_(total),

@@ -8,6 +8,9 @@
 
 namespace omnipoint::cli {
 
+// Seconds as M:SS, or H:MM:SS from an hour on (rounded; negative as 0).
+std::string clock_time(double seconds);
+
 class Progress {
  public:
   explicit Progress(int64_t total);

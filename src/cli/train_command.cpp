@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/safetensors.h"
@@ -40,14 +41,6 @@ struct TrainOptions {
   int64_t nproc = 1;       // > 1: launch that many local ranks
   bool curves_only = false;
 };
-
-std::string clock_text(double seconds) {
-  const long long total = std::llround(seconds);
-  char text[32];
-  std::snprintf(text, sizeof(text), "%lld:%02lld:%02lld", total / 3600, total / 60 % 60,
-                total % 60);
-  return text;
-}
 
 // Keeps the log records of steps <= step (a resumed run rewrites what followed its checkpoint).
 void truncate_log(const std::string& path, int64_t step) {
@@ -151,7 +144,7 @@ void run_train(const TrainOptions& options) {
       if (record.step % config.log_every == 0 || record.step == end)
         std::fprintf(stderr, "train: step %lld/%lld (stage %d) loss %.5g  %.2f img/s  ETA %s\n",
                      static_cast<long long>(record.step), static_cast<long long>(total),
-                     record.stage, record.loss, rate, clock_text(eta).c_str());
+                     record.stage, record.loss, rate, clock_time(eta).c_str());
       if (config.checkpoint_every > 0 && record.step % config.checkpoint_every == 0) {
         train::write_checkpoint(checkpoint_dir, trainer.state(), network->config());
         write_curves(log_path, curves_path);

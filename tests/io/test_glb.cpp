@@ -20,7 +20,6 @@ namespace {
 
 using test::GlbChunks;
 using test::parse_glb;
-using test::u32_at;
 
 template <typename T>
 at::Tensor view_at(const GlbChunks& glb, const nlohmann::json& accessor, int64_t columns,

@@ -146,7 +146,7 @@ TEST(Image, CorruptAndMissingFiles) {
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::ofstream(dir / "half.png", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   EXPECT_THROW(read_image(dir / "half.png"), std::runtime_error);
-  std::ofstream(dir / "empty.png");
+  { std::ofstream empty(dir / "empty.png"); }
   EXPECT_THROW(read_image(dir / "empty.png"), std::runtime_error);
 }
 

@@ -17,6 +17,7 @@ inline uint32_t u32_at(const std::string& bytes, size_t offset) {
   return value;
 }
 
+// NOLINTNEXTLINE(bugprone-exception-escape): the implicit moves are those of its members.
 struct GlbChunks {
   nlohmann::json gltf;
   std::string bin;  // empty when the file has no BIN chunk

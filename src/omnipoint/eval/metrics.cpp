@@ -92,10 +92,10 @@ void depth_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt,
                    const at::Tensor& lr_flat) {
   const bool metric = gt.is_metric && pred.is_metric;
   std::vector<std::string> names;
-  if (metric) names.push_back("depth_metric");
+  if (metric) names.emplace_back("depth_metric");
   for (const char* name :
        {"depth_scale_invariant", "depth_affine_invariant", "disparity_affine_invariant"})
-    names.push_back(name);
+    names.emplace_back(name);
   auto undefined = [&](const std::string& reason) {
     for (const auto& name : names) record_undefined(out, name, reason);
   };
@@ -154,7 +154,7 @@ void point_entries(Metrics& out, const Prediction& pred, const GroundTruth& gt,
   std::vector<std::string> names;
   if (metric) names.emplace_back("points_metric");
   for (const char* name : {"points_scale_invariant", "points_affine_invariant"})
-    names.push_back(name);
+    names.emplace_back(name);
   auto undefined = [&](const std::string& reason) {
     for (const auto& name : names) record_undefined(out, name, reason);
   };

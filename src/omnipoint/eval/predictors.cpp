@@ -54,7 +54,7 @@ Predictor point_map_predictor(const std::string& name,
                               std::function<at::Tensor(const EvalSample&)> load) {
   Predictor predictor;
   predictor.name = name;
-  predictor.predict = [load](const EvalSample& item, const Conditions&) {
+  predictor.predict = [load = std::move(load)](const EvalSample& item, const Conditions&) {
     return prediction_from_points(load(item).to(at::kFloat), true);
   };
   return predictor;

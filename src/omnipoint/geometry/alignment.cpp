@@ -90,7 +90,7 @@ ScaleFit scale_fit_rows(const at::Tensor& x, const at::Tensor& y, const at::Tens
   return {scale, loss, index};
 }
 
-ScaleFit reshape_fit(ScaleFit fit, at::IntArrayRef batch_shape) {
+ScaleFit reshape_fit(const ScaleFit& fit, at::IntArrayRef batch_shape) {
   return {fit.scale.reshape(batch_shape), fit.loss.reshape(batch_shape),
           fit.index.reshape(batch_shape)};
 }

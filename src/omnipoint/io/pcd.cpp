@@ -88,7 +88,7 @@ std::map<std::string, std::vector<std::string>> header_lines(const std::string& 
   size_t pos = 0;
   while (true) {
     const size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos || end > kMaxHeaderBytes)
+    if (end > kMaxHeaderBytes)  // npos (no newline at all) included
       fail(name, "no DATA line in the first 64 KiB (not a PCD file?)");
     std::vector<std::string> words = words_of(bytes.substr(pos, end - pos));
     pos = end + 1;

@@ -246,7 +246,7 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
                                   " but the image is " + std::to_string(height) + "x" +
                                   std::to_string(width) + " (H x W)");
     const at::Tensor present = at::isfinite(depth) & (depth > 0);
-    const at::Tensor values = at::where(present, depth, at::zeros_like(depth));
+    at::Tensor values = at::where(present, depth, at::zeros_like(depth));
     if (!input.depth_is_planar) return values;
     if (!rays.defined())
       throw std::invalid_argument("sparse depth: planar depth needs the rays of the image");

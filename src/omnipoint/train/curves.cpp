@@ -112,7 +112,8 @@ class Canvas {
         for (int row = 0; row < 7; ++row)
           for (int col = 0; col < 5; ++col)
             if (found->second[row] & (0x10 >> col))
-              for (int k = 0; k < 4; ++k) dot(x + 2 * col + k % 2, y + 2 * row + k / 2, c);
+              for (int k = 0; k < 4; ++k)
+                dot(x + 2 * int64_t{col} + k % 2, y + 2 * int64_t{row} + k / 2, c);
       x += 12;
     }
   }
