@@ -21,6 +21,7 @@
 #include "cli/image_list.h"
 #include "cli/progress.h"
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/geometry/points.h"
 #include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
@@ -90,11 +91,10 @@ std::optional<fs::path> sparse_depth_file(const std::string& option, const Image
 struct FusedCloud {
   std::vector<at::Tensor> points, colors;
   void add(const predict::Prediction& p, const at::Tensor& image, const at::Tensor& pose) {
-    const at::Tensor rgb = image.scalar_type() == at::kByte
-                               ? image
-                               : (image.to(at::kFloat).clamp(0, 1) * 255).round().to(at::kByte);
-    points.push_back(predict::world_points(p.points.index({p.mask}), pose));
-    colors.push_back(rgb.index({p.mask}));
+    const geometry::PointCloud cloud =
+        geometry::valid_points(geometry::make_point_cloud(p.points, image, p.mask));
+    points.push_back(predict::world_points(cloud.points, pose));
+    colors.push_back(cloud.colors);
   }
 };
 
@@ -125,9 +125,8 @@ void run_predict(const PredictCommandOptions& options) {
   predict::SparseDepthFileOptions sparse_files;
   sparse_files.depth_png_units_per_metre = options.depth_scale;
   sparse_files.lidar_floats_per_point = io::lidar_floats_per_point(options.lidar_format);
-  sparse_files.camera_from_lidar_path = options.lidar_to_camera;
-  if (!options.lidar_to_camera.empty())
-    io::read_rigid_transform(options.lidar_to_camera);  // a bad file fails before any work
+  if (!options.lidar_to_camera.empty())  // once, so a bad file fails before any work
+    sparse_files.camera_from_lidar = io::read_rigid_transform(options.lidar_to_camera);
 
   predict::PredictOptions base;
   // The camera is read with each image's size, which only files without one (UniK3D's JSON)

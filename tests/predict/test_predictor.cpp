@@ -14,6 +14,7 @@
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/io/point_cloud.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/predict/inputs.h"
 #include "omnipoint/predict/predictor.h"
@@ -87,9 +88,9 @@ TEST(SparseDepthFiles, EveryFormatGivesTheSameMap) {
     SparseDepthFileOptions options;
     double tolerance = 1e-5;
   };
-  const std::string transform = (dir / "lidar_to_camera.txt").string();
+  const at::Tensor transform = io::read_rigid_transform((dir / "lidar_to_camera.txt").string());
   for (const Case& c : std::vector<Case>{{"depth.png", {}},
-                                         {"kitti.png", {256.0, 4, ""}, 0.7 / 256},
+                                         {"kitti.png", {256.0, 4, {}}, 0.7 / 256},
                                          {"depth.npy", {}},
                                          {"cloud.ply", {}},
                                          {"cloud.pcd", {}},

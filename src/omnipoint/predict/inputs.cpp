@@ -74,15 +74,14 @@ SparseDepthInput read_sparse_depth(const std::string& path, const SparseDepthFil
   SparseDepthInput input;
   if (is_point_cloud_file(path)) {
     input.lidar_points = point_cloud(path, ext, options.lidar_floats_per_point);
-    if (!options.camera_from_lidar_path.empty())
-      input.camera_from_lidar = io::read_rigid_transform(options.camera_from_lidar_path);
+    input.camera_from_lidar = options.camera_from_lidar;
     return input;
   }
   if (ext != ".png" && ext != ".exr" && ext != ".npy")
     throw std::invalid_argument("sparse depth " + path +
                                 ": unknown format (expected a depth map .png, .npy or .exr, or a "
                                 "point cloud .ply, .pcd or .bin)");
-  if (!options.camera_from_lidar_path.empty())
+  if (options.camera_from_lidar.defined())
     throw std::invalid_argument("sparse depth " + path +
                                 ": --lidar-to-camera applies to point clouds only");
   const at::Tensor depth = depth_map(path, ext, options.depth_png_units_per_metre);

@@ -26,7 +26,9 @@ namespace omnipoint::predict {
 struct SparseDepthFileOptions {
   double depth_png_units_per_metre = 1000.0;
   int64_t lidar_floats_per_point = 4;
-  std::string camera_from_lidar_path;  // empty: the cloud is in the camera frame
+  // (4, 4) io::read_rigid_transform, read once for all images; undefined: the cloud is in the
+  // camera frame.
+  at::Tensor camera_from_lidar;
 };
 
 SparseDepthInput read_sparse_depth(const std::string& path,
