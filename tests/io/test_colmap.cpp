@@ -7,9 +7,9 @@
 #include <cmath>
 #include <filesystem>
 
-#include "support/cli_run.h"
 #include "support/colmap_writer.h"
 #include "support/expect_error.h"
+#include "support/scratch_dir.h"
 
 namespace fs = std::filesystem;
 using omnipoint::io::ColmapImage;

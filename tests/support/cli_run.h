@@ -1,13 +1,12 @@
 #pragma once
 // Running the built `omnipoint` binary (the OMNIPOINT_CLI macro) from end-to-end tests.
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
+
+#include "support/scratch_dir.h"
 
 namespace omnipoint::test {
 
@@ -15,22 +14,6 @@ struct CliRun {
   int status;  // the exit code, -1 if the process did not exit normally
   std::string out, err;
 };
-
-inline std::string slurp(const std::filesystem::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-// An empty folder NAME_<pid> under the temporary directory, made anew (one per test process).
-inline std::filesystem::path fresh_process_dir(const std::string& name) {
-  std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
 
 // Runs `omnipoint ARGS`, its stdout and stderr captured through files in `scratch`.
 inline CliRun run_omnipoint(const std::string& args, const std::filesystem::path& scratch) {
