@@ -5,7 +5,8 @@
 // neck res blocks [0,2,2,2,0], heads [0,1,1,1,0], points + mask + normal heads, scale MLP
 // [C,C,C,1], intermediate layers [5,11,17,23]); ViT-B and ViT-S use the same decoder with
 // C = their width and layers [2,5,8,11]. Image 480×640 (4:3), batch 1, 2 intra-op threads;
-// one untimed warm-up run, then one timed run (a ViT-L forward takes seconds here).
+// one untimed warm-up run, then one timed run (a ViT-L forward takes seconds here). The
+// `bf16` argument runs under the inference path's bf16 autocast (model/precision.h).
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 #include <benchmark/benchmark.h>
@@ -18,6 +19,7 @@
 #include <string>
 
 #include "omnipoint/model/moge2.h"
+#include "omnipoint/model/precision.h"
 
 namespace {
 
@@ -82,9 +84,15 @@ double peak_memory_mb() {
   return 0;
 }
 
-// GEMM throughput of the machine: a ViT-L MLP-sized product (2400×1024 · 1024×4096).
+Precision precision_of(const benchmark::State& state, int64_t arg) {
+  return state.range(arg) != 0 ? Precision::kBFloat16 : Precision::kFloat32;
+}
+
+// GEMM throughput of the machine: a ViT-L MLP-sized product (2400×1024 · 1024×4096), in fp32
+// or bf16.
 void BM_Gemm(benchmark::State& state) {
-  const at::Tensor a = at::randn({2400, 1024}), b = at::randn({1024, 4096});
+  const at::ScalarType dtype = state.range(0) != 0 ? at::kBFloat16 : at::kFloat;
+  const at::Tensor a = at::randn({2400, 1024}).to(dtype), b = at::randn({1024, 4096}).to(dtype);
   at::mm(a, b);
   const double cpu_start = process_cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(at::mm(a, b));
@@ -100,6 +108,7 @@ void BM_VitBlocks(benchmark::State& state) {
   c10::InferenceMode inference;
   MoGe2Model model(moge2_config(kBackbones[state.range(0)]));
   model->eval();
+  const AutocastScope autocast(precision_of(state, 2), c10::DeviceType::CPU);
   auto& encoder = *model->encoder;
   const at::Tensor image = test_image();
   const TokenGrid grid = token_grid(image.size(2), image.size(3), state.range(1));
@@ -123,6 +132,7 @@ void BM_Forward(benchmark::State& state) {
   c10::InferenceMode inference;
   MoGe2Model model(moge2_config(kBackbones[state.range(0)]));
   model->eval();
+  const AutocastScope autocast(precision_of(state, 2), c10::DeviceType::CPU);
   const at::Tensor image = test_image();
   model->forward(image, state.range(1));  // warm-up
   const double cpu_start = process_cpu_seconds();
@@ -133,12 +143,22 @@ void BM_Forward(benchmark::State& state) {
 }
 
 void variants(benchmark::internal::Benchmark* bench) {
-  bench->ArgNames({"vit", "tokens"})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+  bench->ArgNames({"vit", "tokens", "bf16"})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->Iterations(1);
   for (int64_t vit = 0; vit < 3; ++vit)
-    for (int64_t tokens : {1200, 2400}) bench->Args({vit, tokens});
+    for (int64_t tokens : {1200, 2400})
+      for (int64_t bf16 : {0, 1}) bench->Args({vit, tokens, bf16});
 }
 
-BENCHMARK(BM_Gemm)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
+BENCHMARK(BM_Gemm)
+    ->ArgName("bf16")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(5);
 BENCHMARK(BM_VitBlocks)->Apply(variants);
 BENCHMARK(BM_Forward)->Apply(variants);
 

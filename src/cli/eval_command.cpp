@@ -33,6 +33,7 @@ namespace fs = std::filesystem;
 
 struct EvalOptions {
   std::string model, random_model, predictions, baseline, out, label, device = "cpu";
+  std::string precision = "fp32";
   std::vector<std::string> data;
   bool intrinsics = false, moge_relative = false, save_points = false;
   std::vector<std::string> sparse_depth;  // no value: the default count
@@ -44,8 +45,9 @@ struct EvalOptions {
 eval::Predictor model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.model).stem().string() : options.label;
-  return eval::network_predictor(infer::load_network(options.model, parse_device(options.device)),
-                                 name, options.num_tokens);
+  const at::Device device = parse_device(options.device);
+  return eval::network_predictor(infer::load_network(options.model, device), name,
+                                 options.num_tokens, parse_precision(options.precision, device));
 }
 
 // DIR/<id>.npy, else DIR/<dataset folder name>/<id>.npy: (H, W, 3) metric points.
@@ -74,9 +76,9 @@ eval::Predictor random_model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
                             : options.label;
-  return eval::network_predictor(
-      infer::Network(model::OmniPointModel(config), parse_device(options.device)), name,
-      options.num_tokens);
+  const at::Device device = parse_device(options.device);
+  return eval::network_predictor(infer::Network(model::OmniPointModel(config), device), name,
+                                 options.num_tokens, parse_precision(options.precision, device));
 }
 
 eval::Predictor make_predictor(const EvalOptions& options) {
@@ -179,6 +181,7 @@ void add_eval_command(CLI::App& app) {
                 "and sparse_distance.npy, the sparse radial distances given (+D)");
   cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
   cmd->add_option("--device", options->device, "cpu | cuda")->capture_default_str();
+  cmd->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
   auto* sparse = cmd->get_option("--sparse-depth");
   cmd->callback([options, sparse] {
     if (options->device != "cpu" && options->device != "cuda")

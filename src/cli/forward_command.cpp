@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "cli/device.h"
 #include "omnipoint/infer/infer.h"
 #include "omnipoint/io/npy.h"
 
@@ -21,6 +22,7 @@ struct ForwardOptions {
   std::string input_path;
   std::string out_dir;
   int64_t num_tokens = 0;  // 0: the model's default
+  std::string precision = "fp32";
 };
 
 // The image as a float32 (B,3,H,W) tensor in [0,1]; std::invalid_argument otherwise.
@@ -45,9 +47,10 @@ at::Tensor read_image_array(const std::string& path) {
 }
 
 void run_forward(const ForwardOptions& options) {
+  const model::Precision precision = parse_precision(options.precision, at::kCPU);
   const at::Tensor image = read_image_array(options.input_path);
   const infer::RawOutput output =
-      infer::forward(infer::load_network(options.model_path), image, options.num_tokens);
+      infer::forward(infer::load_network(options.model_path), image, options.num_tokens, precision);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {
@@ -81,6 +84,7 @@ void add_forward_command(CLI::App& app) {
       "--num-tokens", options->num_tokens,
       "Target number of ViT patch tokens (default: the top of the model's num_tokens_range)");
   command->add_option("--out", options->out_dir, "Output folder (created if missing)")->required();
+  command->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
   command->callback([options, num_tokens] {
     if (num_tokens->count() > 0 && options->num_tokens <= 0)
       throw std::invalid_argument("--num-tokens must be a positive integer, got " +

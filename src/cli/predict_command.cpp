@@ -55,6 +55,7 @@ struct PredictCommandOptions {
   int64_t num_tokens = 0;
   std::string fit_model = "auto";
   std::string device = "cpu";
+  std::string precision = "fp32";
 };
 
 // --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool
@@ -151,14 +152,15 @@ void run_predict(const PredictCommandOptions& options) {
     if (first.defined()) given_camera(first.size(1), first.size(0));
   }
   base.num_tokens = options.num_tokens;
+  const at::Device device = parse_device(options.device);
+  base.precision = parse_precision(options.precision, device);
   base.fit_model = options.fit_model == "none" ? "" : options.fit_model;
   base.edge_rtol = options.edge_rtol;
   predict::OutputOptions outputs;
   outputs.files = predict::parse_output_list(options.outputs);
   std::optional<predict::ColmapScene> colmap;
   if (!options.colmap.empty()) colmap = predict::ColmapScene::read(options.colmap);
-  const Model model =
-      Model::load(model_path_or_bundled(options.model_path), parse_device(options.device));
+  const Model model = Model::load(model_path_or_bundled(options.model_path), device);
 
   Progress progress(static_cast<int64_t>(list.images.size()));
   if (list.skipped_files > 0)
@@ -350,6 +352,7 @@ void add_predict_command(CLI::App& app) {
       "Camera model fitted to the predicted rays (COLMAP name; auto: a given camera as it is, else "
       "the simplest candidate of the smallest angular residual, camera/fit.h; none: no fit)");
   command->add_option("--device", options->device, "cpu, cuda or cuda:N (default cpu)");
+  command->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
   command->callback([options] { run_predict(*options); });
 }
 

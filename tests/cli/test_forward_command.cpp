@@ -95,6 +95,12 @@ TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
   expect_refusal("--model " + kModel + " --input " + integers, "float32");
 }
 
+TEST_F(ForwardCommand, RefusesPrecisionsItCannotRun) {
+  const std::string arguments = "--model " + kModel + " --input " + kFixture + "/input.npy";
+  expect_refusal(arguments + " --precision fp8", "--precision fp8: expected fp32, bf16 or fp16");
+  expect_refusal(arguments + " --precision fp16", "--precision fp16 needs --device cuda");
+}
+
 }  // namespace
 
 TEST_F(ForwardCommand, RunsAnOmniPointCheckpoint) {

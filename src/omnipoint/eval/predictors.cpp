@@ -20,19 +20,21 @@ GeometryPrediction prediction_from_points(const at::Tensor& points, bool is_metr
   return prediction;
 }
 
-Predictor network_predictor(infer::Network network, const std::string& name, int64_t num_tokens) {
+Predictor network_predictor(infer::Network network, const std::string& name, int64_t num_tokens,
+                            model::Precision precision) {
   Predictor predictor;
   predictor.name = name;
   predictor.accepts_intrinsics = static_cast<bool>(network.omnipoint());
   predictor.accepts_sparse_depth = true;
-  predictor.predict = [network = std::move(network), num_tokens](const EvalSample& item,
-                                                                 const Conditions& conditions) {
+  predictor.predict = [network = std::move(network), num_tokens, precision](
+                          const EvalSample& item, const Conditions& conditions) {
     infer::Inputs inputs;
     inputs.images = item.sample.image.permute({2, 0, 1}).unsqueeze(0);
     if (conditions.rays.defined()) inputs.camera = item.sample.camera;
     if (conditions.sparse_depth.defined())
       inputs.sparse_distance = conditions.sparse_depth.unsqueeze(0);
     inputs.num_tokens = num_tokens;
+    inputs.precision = precision;
     // Distances of a relative (non-metric) sample carry no metric scale to align to.
     inputs.align_to_sparse_depth = item.sample.metric;
     const infer::Result result = infer::run(network, inputs);

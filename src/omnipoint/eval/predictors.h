@@ -23,8 +23,8 @@
 namespace omnipoint::eval {
 
 // num_tokens 0: the model's default (infer::Network::default_num_tokens).
-Predictor network_predictor(infer::Network network, const std::string& name,
-                            int64_t num_tokens = 0);
+Predictor network_predictor(infer::Network network, const std::string& name, int64_t num_tokens = 0,
+                            model::Precision precision = model::Precision::kFloat32);
 // `load` returns the sample's point map or throws MissingPrediction.
 Predictor point_map_predictor(const std::string& name,
                               std::function<at::Tensor(const EvalSample&)> load);

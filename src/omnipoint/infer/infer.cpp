@@ -161,6 +161,7 @@ Result run(const Network& network, const Inputs& inputs) {
 
   auto start = Clock::now();
   Geometry net;
+  const model::AutocastScope autocast(inputs.precision, network.device().type());
   if (network.omnipoint()) {
     net = run_omnipoint(network, images, camera_rays, sparse, num_tokens);
   } else {
@@ -222,8 +223,10 @@ PointMap point_map(const Result& result) {
   return point_map(result.rays, scale * result.distance, result.mask);
 }
 
-RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens) {
+RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens,
+                  model::Precision precision) {
   c10::InferenceMode inference;
+  const model::AutocastScope autocast(precision, network.device().type());
   const at::Tensor input = images.to(network.device(), at::kFloat).contiguous();
   const int64_t tokens = network.num_tokens(num_tokens);
   if (network.omnipoint()) {

@@ -32,6 +32,7 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/model/moge2.h"
 #include "omnipoint/model/omnipoint_model.h"
+#include "omnipoint/model/precision.h"
 
 namespace omnipoint::infer {
 
@@ -66,15 +67,14 @@ class Network {
 // std::invalid_argument for one that is not a model we know.
 Network load_network(const std::string& path, at::Device device = at::kCPU);
 
-enum class Precision { kFloat32 };  // others (bf16, fp16) are not implemented yet
-
 struct Inputs {
   at::Tensor images;                     // (B, 3, H, W) RGB in [0, 1], any device
   std::optional<camera::Camera> camera;  // the images' camera, at their size
   at::Tensor sparse_distance;            // (B, H, W) metric radial distances; 0: no sample
   int64_t num_tokens = 0;                // ViT token budget; 0: the model's default
   bool align_to_sparse_depth = true;
-  Precision precision = Precision::kFloat32;
+  // The network's precision (model/precision.h); the geometry after it is fp32 whatever it is.
+  model::Precision precision = model::Precision::kFloat32;
 };
 
 // Milliseconds of one run.
@@ -123,6 +123,7 @@ PointMap point_map(const Result& result);
 struct RawOutput {
   at::Tensor points, mask, metric_scale, rays, distance, normal;
 };
-RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens = 0);
+RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens = 0,
+                  model::Precision precision = model::Precision::kFloat32);
 
 }  // namespace omnipoint::infer

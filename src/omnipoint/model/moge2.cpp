@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "omnipoint/geometry/view_plane_uv.h"
+#include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
 
 namespace omnipoint::model {
@@ -162,11 +163,12 @@ std::vector<at::Tensor> neck_inputs(const at::Tensor& features, const TokenGrid&
   return inputs;
 }
 
-at::Tensor resize_to_image(const at::Tensor& map, int64_t height, int64_t width) {
-  return F::interpolate(map, F::InterpolateFuncOptions()
-                                 .size(std::vector<int64_t>{height, width})
-                                 .mode(torch::kBilinear)
-                                 .align_corners(false));
+at::Tensor resize_to_image(const at::Tensor& map, const at::Tensor& image) {
+  return F::interpolate(map.to(image.scalar_type()),
+                        F::InterpolateFuncOptions()
+                            .size(std::vector<int64_t>{image.size(2), image.size(3)})
+                            .mode(torch::kBilinear)
+                            .align_corners(false));
 }
 
 torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims) {
@@ -176,6 +178,12 @@ torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims) {
     mlp->push_back(torch::nn::Linear(dims[i], dims[i + 1]));
   }
   return mlp;
+}
+
+at::Tensor log_metric_scale(torch::nn::Sequential& scale_head, const at::Tensor& class_token,
+                            c10::ScalarType dtype) {
+  const AutocastOff full_precision;
+  return scale_head->forward(class_token.to(dtype)).squeeze(1);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -251,20 +259,19 @@ MoGe2RawOutput MoGe2ModelImpl::forward_raw(const at::Tensor& image, const TokenG
   raw.points = points_head->forward(neck_levels).back();
   if (mask_head) raw.mask = mask_head->forward(neck_levels).back();
   if (normal_head) raw.normal = normal_head->forward(neck_levels).back();
-  if (scale_head) raw.log_scale = scale_head->forward(encoded.class_token).squeeze(1);
+  if (scale_head)
+    raw.log_scale = log_metric_scale(scale_head, encoded.class_token, image.scalar_type());
   return raw;
 }
 
 MoGe2Output MoGe2ModelImpl::forward(const at::Tensor& image, int64_t num_tokens) {
   if (image.dim() != 4 || image.size(1) != 3)
     throw std::invalid_argument("MoGe-2 input must be (B,3,H,W), got " + c10::str(image.sizes()));
-  const int64_t height = image.size(2), width = image.size(3);
-  const MoGe2RawOutput raw = forward_raw(image, token_grid(height, width, num_tokens));
+  const MoGe2RawOutput raw =
+      forward_raw(image, token_grid(image.size(2), image.size(3), num_tokens));
 
   // Resize the raw maps first, remap after.
-  const auto to_image_size = [&](const at::Tensor& map) {
-    return resize_to_image(map, height, width);
-  };
+  const auto to_image_size = [&](const at::Tensor& map) { return resize_to_image(map, image); };
   MoGe2Output output;
   output.points =
       remap_points(to_image_size(raw.points).permute({0, 2, 3, 1}), config_.remap_output);

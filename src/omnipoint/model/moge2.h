@@ -71,11 +71,16 @@ at::Tensor remap_points(const at::Tensor& raw, const std::string& remap);
 // the uv map at 2^l times the grid for an image of aspect W/H `aspect_ratio`;
 std::vector<at::Tensor> neck_inputs(const at::Tensor& features, const TokenGrid& grid,
                                     double aspect_ratio, int64_t num_levels);
-// a raw (B,C,h,w) head map resized to the image size (bilinear, align_corners false, no
-// antialias), before any activation: interpolating exp(z) is not exp(interpolated z);
-at::Tensor resize_to_image(const at::Tensor& map, int64_t height, int64_t width);
-// the scale head: Linear layers over `dims` with a ReLU between consecutive ones.
+// a raw (B,C,h,w) head map resized to the (B,3,H,W) image's size (bilinear, align_corners
+// false, no antialias), before any activation: interpolating exp(z) is not exp(interpolated
+// z); in the image's precision, so under autocast (precision.h) what follows is not 16-bit;
+at::Tensor resize_to_image(const at::Tensor& map, const at::Tensor& image);
+// the scale head: Linear layers over `dims` with a ReLU between consecutive ones;
 torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims);
+// its (B) log scale from the (B,C) class token, in full precision (autocast off): the one
+// number per image that scales every point.
+at::Tensor log_metric_scale(torch::nn::Sequential& scale_head, const at::Tensor& class_token,
+                            c10::ScalarType dtype);
 
 struct EncoderOutput {
   at::Tensor features;     // (B, dim_out, rows, cols): the projected intermediate layers, summed

@@ -31,9 +31,9 @@ void check_inputs(const OmniPointInputs& inputs) {
 }
 
 // (B,C,h,w) head output at the image size, channels last.
-at::Tensor head_map(ConvStack& head, const std::vector<at::Tensor>& neck_levels, int64_t height,
-                    int64_t width) {
-  return resize_to_image(head->forward(neck_levels).back(), height, width).permute({0, 2, 3, 1});
+at::Tensor head_map(ConvStack& head, const std::vector<at::Tensor>& neck_levels,
+                    const at::Tensor& image) {
+  return resize_to_image(head->forward(neck_levels).back(), image).permute({0, 2, 3, 1});
 }
 
 at::Tensor unit_length(const at::Tensor& vectors) {
@@ -166,20 +166,21 @@ OmniPointOutput OmniPointModelImpl::forward(const OmniPointInputs& inputs, int64
   out.intrinsics_present = conditioning.intrinsics_present;
   out.sparse_depth_present = conditioning.sparse_depth_present;
   if (config_.output == OutputKind::kRayDistance) {
-    out.ray_raw = head_map(ray_head, neck_levels, height, width);
+    out.ray_raw = head_map(ray_head, neck_levels, inputs.image);
     out.rays = unit_length(out.ray_raw);
-    out.log_distance = head_map(distance_head, neck_levels, height, width).squeeze(-1);
+    out.log_distance = head_map(distance_head, neck_levels, inputs.image).squeeze(-1);
     out.distance = at::exp(out.log_distance);
   } else {
-    out.points_raw = head_map(points_head, neck_levels, height, width);
+    out.points_raw = head_map(points_head, neck_levels, inputs.image);
     const geometry::RaysAndDistance factored =
         geometry::rays_from_points(remap_points(out.points_raw, "exp"));
     out.rays = factored.rays;
     out.distance = factored.distance;
   }
-  out.mask_logits = head_map(mask_head, neck_levels, height, width).squeeze(-1);
+  out.mask_logits = head_map(mask_head, neck_levels, inputs.image).squeeze(-1);
   out.mask = at::sigmoid(out.mask_logits);
-  out.log_metric_scale = scale_head->forward(encoded.class_token).squeeze(1);
+  out.log_metric_scale =
+      log_metric_scale(scale_head, encoded.class_token, inputs.image.scalar_type());
   out.metric_scale = at::exp(out.log_metric_scale);
   out.points = out.metric_scale.view({batch, 1, 1, 1}) * out.distance.unsqueeze(-1) * out.rays;
   return out;

@@ -52,6 +52,7 @@ nlohmann::json summary(const Prediction& p) {
   json["sparse_depth"] = {{"samples", p.sparse_samples}, {"alignment_factor", p.alignment_factor}};
   json["valid_pixels"] = p.mask.sum().item<int64_t>();
   json["edge_filter"] = {{"rtol", p.edge_rtol}, {"removed_pixels", p.edge_pixels_removed}};
+  json["precision"] = model::precision_name(p.precision);
   json["notes"] = p.notes;
   json["warnings"] = p.warnings;
   json["timing_ms"] = {{"prepare", p.timing.prepare_ms},

@@ -143,6 +143,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
   infer::Inputs inputs;
   inputs.images = network_input(images, network.device());
   inputs.num_tokens = options.num_tokens;
+  inputs.precision = options.precision;
   inputs.align_to_sparse_depth = options.align_to_sparse_depth;
   const int64_t batch = inputs.images.size(0), height = inputs.images.size(2),
                 width = inputs.images.size(3);
@@ -221,6 +222,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
     p.alignment_factor = factor[b].item<double>();
     p.sparse_samples = samples[b].item<int64_t>();
     p.notes = notes;
+    p.precision = options.precision;
     if (sparse_in_image.defined())
       p.warnings = sparse_depth_warnings(
           sparse_in_image[b].item<int64_t>(),

@@ -31,6 +31,7 @@
 
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/fit.h"
+#include "omnipoint/model/precision.h"
 
 namespace omnipoint::infer {
 class Network;
@@ -76,6 +77,9 @@ struct PredictOptions {
   // false: the sparse depth is in arbitrary units (a COLMAP reconstruction's), so the prediction
   // takes its scale and a far-from-1 alignment factor is expected, not a warning.
   bool sparse_depth_is_metric = true;
+  // The network's precision (model/precision.h: bf16 on CPU or CUDA, fp16 on CUDA); the
+  // geometry after the network is fp32 whatever it is.
+  model::Precision precision = model::Precision::kFloat32;
 };
 
 // Wall-clock milliseconds per stage of one predict call.
@@ -105,7 +109,8 @@ struct Prediction {
   // pixels valid before the flying-pixel filter (camera::angular_residual; the fit uses them
   // too: their rays are as good as any). A given camera has none: its rays are `rays`.
   std::optional<camera::AngularResidual> fit_residual;
-  std::string fit_error;              // why no camera was fitted, when fit_model asked for one
+  std::string fit_error;  // why no camera was fitted, when fit_model asked for one
+  model::Precision precision = model::Precision::kFloat32;  // the network's
   std::vector<std::string> notes;     // what the prediction did that a user should know
   std::vector<std::string> warnings;  // inputs that look wrong (sparse_depth_warnings)
   StageTimes timing;
