@@ -23,11 +23,12 @@ at::Device parse_device(const std::string& name) {
 }
 
 model::Precision parse_precision(const std::string& name, at::Device device) {
+  if (name == "auto") return model::default_precision(device.type());
   model::Precision precision{};
   try {
     precision = model::parse_precision(name);
   } catch (const std::invalid_argument&) {
-    throw std::invalid_argument("--precision " + name + ": expected fp32, bf16 or fp16");
+    throw std::invalid_argument("--precision " + name + ": expected auto, fp32, bf16 or fp16");
   }
   if (precision == model::Precision::kFloat16 && !device.is_cuda())
     throw std::invalid_argument("--precision fp16 needs --device cuda; on a CPU use bf16");

@@ -13,10 +13,11 @@ namespace omnipoint::cli {
 // build or machine has none (instead of LibTorch's multi-line trace at first use).
 at::Device parse_device(const std::string& name);
 
-// fp32, bf16 (CPU or CUDA) or fp16 (CUDA); std::invalid_argument with one line otherwise.
+// auto (model::default_precision: bf16 on a CPU with native bf16, else fp32), fp32, bf16 (CPU
+// or CUDA) or fp16 (CUDA); std::invalid_argument with one line otherwise.
 inline constexpr const char* kPrecisionHelp =
-    "Network precision: fp32, bf16 (CPU with native bf16 or CUDA: about twice as fast, points "
-    "within ~1 % of fp32) or fp16 (CUDA)";
+    "Network precision: auto (bf16 on a CPU with native bf16, else fp32), fp32, bf16 (about "
+    "twice as fast for large models on such CPUs, points within ~1 % of fp32) or fp16 (CUDA)";
 model::Precision parse_precision(const std::string& name, at::Device device);
 
 }  // namespace omnipoint::cli

@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 
 struct EvalOptions {
   std::string model, random_model, predictions, baseline, out, label, device = "cpu";
-  std::string precision = "fp32";
+  std::string precision = "auto";
   std::vector<std::string> data;
   bool intrinsics = false, moge_relative = false, save_points = false;
   std::vector<std::string> sparse_depth;  // no value: the default count

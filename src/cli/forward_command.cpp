@@ -22,7 +22,7 @@ struct ForwardOptions {
   std::string input_path;
   std::string out_dir;
   int64_t num_tokens = 0;  // 0: the model's default
-  std::string precision = "fp32";
+  std::string precision = "auto";
 };
 
 // The image as a float32 (B,3,H,W) tensor in [0,1]; std::invalid_argument otherwise.

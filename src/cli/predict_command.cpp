@@ -55,7 +55,7 @@ struct PredictCommandOptions {
   int64_t num_tokens = 0;
   std::string fit_model = "auto";
   std::string device = "cpu";
-  std::string precision = "fp32";
+  std::string precision = "auto";
 };
 
 // --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool

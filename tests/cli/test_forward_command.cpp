@@ -97,7 +97,8 @@ TEST_F(ForwardCommand, RefusesBadImageArraysWithOneLine) {
 
 TEST_F(ForwardCommand, RefusesPrecisionsItCannotRun) {
   const std::string arguments = "--model " + kModel + " --input " + kFixture + "/input.npy";
-  expect_refusal(arguments + " --precision fp8", "--precision fp8: expected fp32, bf16 or fp16");
+  expect_refusal(arguments + " --precision fp8",
+                 "--precision fp8: expected auto, fp32, bf16 or fp16");
   expect_refusal(arguments + " --precision fp16", "--precision fp16 needs --device cuda");
 }
 

@@ -39,8 +39,8 @@ TEST(Precision, Bf16StaysNearFp32OnTheMoGe2Fixture) {
   const RawOutput fp32 = forward(network, image, 300, Precision::kFloat32);
   const RawOutput bf16 = forward(network, image, 300, Precision::kBFloat16);
   // fp32 is the fixture's own result (parity untouched by the precision code).
-  EXPECT_TRUE(at::allclose(fp32.points, io::read_npy(kFixture + "/expected_points.npy"), 1e-4,
-                           1e-4));
+  EXPECT_TRUE(
+      at::allclose(fp32.points, io::read_npy(kFixture + "/expected_points.npy"), 1e-4, 1e-4));
   for (const at::Tensor& output : {bf16.points, bf16.mask, bf16.metric_scale, bf16.distance})
     EXPECT_EQ(output.scalar_type(), at::kFloat);
   const at::Tensor error = relative_point_error(bf16.points, fp32.points);
@@ -66,7 +66,8 @@ TEST(Precision, Bf16PredictionOfTheBundledModelStaysNearFp32) {
   EXPECT_EQ(bf16.precision, Precision::kBFloat16);
   const at::Tensor both = fp32.mask & bf16.mask;
   ASSERT_GT(both.sum().item<int64_t>(), image.size(0) * image.size(1) / 2);
-  const at::Tensor error = relative_point_error(bf16.points.index({both}), fp32.points.index({both}));
+  const at::Tensor error =
+      relative_point_error(bf16.points.index({both}), fp32.points.index({both}));
   EXPECT_LE(error.median().item<double>(), kMedianTolerance);
   EXPECT_LE(error.max().item<double>(), kMaxTolerance);
   EXPECT_NEAR(bf16.metric_scale / fp32.metric_scale, 1.0, kMedianTolerance);

@@ -33,6 +33,11 @@ bool cpu_has_native_bf16() {
 #endif
 }
 
+Precision default_precision(c10::DeviceType device) {
+  return device == c10::DeviceType::CPU && cpu_has_native_bf16() ? Precision::kBFloat16
+                                                                 : Precision::kFloat32;
+}
+
 AutocastScope::AutocastScope(Precision precision, c10::DeviceType device) {
   if (precision == Precision::kFloat32) return;
   const bool cuda = device == c10::DeviceType::CUDA;

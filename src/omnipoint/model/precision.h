@@ -17,8 +17,12 @@ enum class Precision { kFloat32, kBFloat16, kFloat16 };
 Precision parse_precision(const std::string& name);
 std::string precision_name(Precision precision);
 
-// Whether this CPU computes bf16 natively (AVX-512 BF16 or AMX), where bf16 pays.
+// Whether this CPU computes bf16 natively (AVX-512 BF16), where bf16 pays.
 bool cpu_has_native_bf16();
+// The commands' default ("auto"): bf16 on a CPU with native bf16, fp32 elsewhere (CUDA
+// included). On the synthetic benchmark bf16 moves the bundled model's scores by at most
+// 0.08 points Rel (docs/PERFORMANCE.md).
+Precision default_precision(c10::DeviceType device);
 
 // Autocast to `precision` on `device` for the scope's lifetime (fp32: nothing changes); the
 // previous state comes back after it. std::invalid_argument for fp16 on a CPU.
