@@ -223,7 +223,9 @@ function showSummary(record, files) {
   const add = (term, value) => { if (value !== undefined && value !== null && value !== '') rows.push([term, value]); };
   const fixed = (value, digits) => (typeof value === 'number' ? value.toFixed(digits) : undefined);
   if (record) {
-    add('camera', record.camera_spec ?? (record.fit_error ? `none (${record.fit_error})` : undefined));
+    const rounded = (spec) => spec.replace(/-?\d+\.\d+(e-?\d+)?/g, (number) => `${+Number(number).toPrecision(5)}`);
+    add('camera', record.camera_spec ? rounded(record.camera_spec)
+      : record.fit_error ? `none (${record.fit_error})` : undefined);
     add('camera from', record.camera_source === 'fitted' && record.fit_residual_deg
       ? `fitted to the rays (residual median ${fixed(record.fit_residual_deg.median, 3)}°, max ${fixed(record.fit_residual_deg.max, 3)}°)`
       : record.camera_source);
