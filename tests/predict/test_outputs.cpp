@@ -203,7 +203,7 @@ TEST(OutputList, BadNamesListTheValidOnes) {
   const std::string unknown = message("ply,exr");
   EXPECT_EQ(
       unknown.rfind("outputs: unknown name \"exr\" in \"ply,exr\"; valid: ply, glb, npy, depth, "
-                    "mask, vis, preview, png, mesh, camera, default, all, or a file name "
+                    "mask, vis, preview, image, png, mesh, camera, default, all, or a file name "
                     "(camera.json, depth.npy, ",
                     0),
       0u)
