@@ -76,7 +76,9 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& output_grou
       {"mask", {"mask.png"}},
       {"vis", {"depth_vis.png"}},
       {"preview", {"preview.png"}},
-      {"png", {"mask.png", "depth.png", "distance.png", "depth_vis.png", "preview.png"}},
+      {"image", {"image.png"}},
+      {"png",
+       {"mask.png", "depth.png", "distance.png", "depth_vis.png", "preview.png", "image.png"}},
       {"mesh", {"mesh.glb"}},
       {"camera", {"camera.json"}},
   };
@@ -247,6 +249,7 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     produce("depth_vis.png", [&](const std::string& path) {
       io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
     });
+    produce("image.png", [&](const std::string& path) { io::write_image_png(path, rgb); });
     produce("preview.png", [&](const std::string& path) {
       io::write_image_png(path, render_preview(cloud.points, cloud.colors));
     });
