@@ -20,6 +20,7 @@
 #include "cli/device.h"
 #include "cli/image_list.h"
 #include "cli/progress.h"
+#include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/io/camera_file.h"
@@ -55,6 +56,7 @@ struct PredictCommandOptions {
   int64_t num_tokens = 0;
   std::string fit_model = "auto";
   std::string device = "cpu";
+  int threads = 0;  // 0: every core
 };
 
 // --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool
@@ -350,7 +352,11 @@ void add_predict_command(CLI::App& app) {
       "Camera model fitted to the predicted rays (COLMAP name; auto: a given camera as it is, else "
       "the simplest candidate of the smallest angular residual, camera/fit.h; none: no fit)");
   command->add_option("--device", options->device, "cpu, cuda or cuda:N (default cpu)");
-  command->callback([options] { run_predict(*options); });
+  add_threads_option(command, &options->threads);
+  command->callback([options] {
+    use_threads(options->threads);
+    run_predict(*options);
+  });
 }
 
 }  // namespace omnipoint::cli
