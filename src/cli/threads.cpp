@@ -1,9 +1,9 @@
 #include "cli/threads.h"
 
 #include <ATen/Parallel.h>
-#include <CLI/CLI.hpp>
 #include <dlfcn.h>
 #include <unistd.h>
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cstdlib>
