@@ -1,10 +1,14 @@
 #include "omnipoint/io/glb.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -29,7 +33,7 @@ void append_u32(std::string& out, uint32_t value) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
 }
 
-// faces: (T, 3) int64 CPU indices, or undefined for a point cloud. Every array is a multiple
+// faces: (T, 3) integer indices, or undefined for a point cloud. Every array is a multiple
 // of 4 bytes long, so the BIN chunk needs no padding between or after them.
 std::string encode(const at::Tensor& points, const at::Tensor& colors,
                    const at::Tensor& face_indices) {
@@ -39,22 +43,35 @@ std::string encode(const at::Tensor& points, const at::Tensor& colors,
   const int64_t count = points.size(0);
   if (colors.defined() && (colors.scalar_type() != at::kByte || colors.sizes() != points.sizes()))
     throw std::invalid_argument("glb: colors must be uint8 (N, 3) like the points");
-  // glTF: y up, looking along -z.
-  const at::Tensor positions =
-      (points.to(at::kCPU, at::kFloat) * at::tensor({1.0f, -1.0f, -1.0f})).contiguous();
-  if (!at::isfinite(positions).all().item<bool>())
-    throw std::invalid_argument("glb: points must be finite");
-  const at::Tensor rgb =
-      colors.defined() ? colors.to(at::kCPU) : at::full({count, 3}, 255, at::kByte);
-  const at::Tensor rgba = at::cat({rgb, at::full({count, 1}, 255, at::kByte)}, 1).contiguous();
-  if (face_indices.defined() && face_indices.numel() > 0 &&
-      (face_indices.min().item<int64_t>() < 0 || face_indices.max().item<int64_t>() >= count))
-    throw std::invalid_argument("glb: face indices must lie in [0, " + std::to_string(count) + ")");
-  // uint32 in the file; int32 holds every index of a GLB under 4 GiB (< 2^28 vertices).
+  const at::Tensor xyz = points.to(at::kCPU, at::kFloat).contiguous();
+  const at::Tensor rgb = colors.defined() ? colors.to(at::kCPU).contiguous() : at::Tensor();
+  // glTF: y up, looking along -z. The bounds and the check first, the positions written into
+  // the file's buffer below.
+  const float flip[3] = {1.0f, -1.0f, -1.0f};
+  std::vector<float> low(3, std::numeric_limits<float>::infinity()),
+      high(3, -std::numeric_limits<float>::infinity());
+  const float* source = xyz.data_ptr<float>();
+  for (int64_t i = 0; i < 3 * count; ++i) {
+    const float value = source[i] * flip[i % 3];
+    if (!std::isfinite(value)) throw std::invalid_argument("glb: points must be finite");
+    low[i % 3] = std::min(low[i % 3], value);
+    high[i % 3] = std::max(high[i % 3], value);
+  }
+  // Checked here, written as uint32 below: every index of a GLB under 4 GiB (< 2^28 vertices)
+  // fits.
   const at::Tensor faces =
-      face_indices.defined() ? face_indices.to(at::kInt).contiguous() : at::Tensor();
+      face_indices.defined() ? face_indices.to(at::kCPU).contiguous() : at::Tensor();
   const int64_t index_count = faces.defined() ? faces.numel() : 0;
-
+  if (index_count > 0)
+    AT_DISPATCH_INTEGRAL_TYPES(faces.scalar_type(), "glb", [&] {
+      const scalar_t* index = faces.data_ptr<scalar_t>();
+      for (int64_t i = 0; i < index_count; ++i) {
+        const int64_t value = index[i];
+        if (value < 0 || value >= count)
+          throw std::invalid_argument("glb: face indices must lie in [0, " + std::to_string(count) +
+                                      ")");
+      }
+    });
   const int64_t position_bytes = count * 12, color_bytes = count * 4, index_bytes = index_count * 4;
   const int64_t bin_bytes = position_bytes + color_bytes + index_bytes;
   json gltf;
@@ -65,10 +82,6 @@ std::string encode(const at::Tensor& points, const at::Tensor& colors,
   if (empty) {
     gltf["nodes"] = json::array({json{{"name", "omnipoint"}}});
   } else {
-    const at::Tensor low = std::get<0>(positions.min(0)), high = std::get<0>(positions.max(0));
-    const auto vec = [](const at::Tensor& t) {
-      return std::vector<float>{t[0].item<float>(), t[1].item<float>(), t[2].item<float>()};
-    };
     gltf["nodes"] = json::array({json{{"name", "omnipoint"}, {"mesh", 0}}});
     json primitive = {{"attributes", {{"POSITION", 0}, {"COLOR_0", 1}}},
                       {"mode", faces.defined() ? kTriangles : kPoints}};
@@ -76,8 +89,8 @@ std::string encode(const at::Tensor& points, const at::Tensor& colors,
                                           {"componentType", kFloat},
                                           {"count", count},
                                           {"type", "VEC3"},
-                                          {"min", vec(low)},
-                                          {"max", vec(high)}},
+                                          {"min", low},
+                                          {"max", high}},
                                      json{{"bufferView", 1},
                                           {"componentType", kUnsignedByte},
                                           {"normalized", true},
@@ -128,11 +141,26 @@ std::string encode(const at::Tensor& points, const at::Tensor& colors,
     append_u32(out, kBinChunk);
     const size_t bin = out.size();
     out.resize(total);
-    std::memcpy(out.data() + bin, positions.data_ptr<float>(), position_bytes);
-    std::memcpy(out.data() + bin + position_bytes, rgba.data_ptr<uint8_t>(), color_bytes);
-    if (index_bytes > 0)
-      std::memcpy(out.data() + bin + position_bytes + color_bytes, faces.data_ptr<int32_t>(),
-                  index_bytes);
+    char* positions = out.data() + bin;
+    for (int64_t i = 0; i < 3 * count; ++i) {
+      const float value = source[i] * flip[i % 3];
+      std::memcpy(positions + 4 * i, &value, 4);
+    }
+    // RGBA, opaque; white without colours.
+    uint8_t* rgba = reinterpret_cast<uint8_t*>(out.data() + bin + position_bytes);
+    const uint8_t* color = rgb.defined() ? rgb.data_ptr<uint8_t>() : nullptr;
+    for (int64_t i = 0; i < count; ++i)
+      for (int c = 0; c < 4; ++c)
+        rgba[4 * i + c] = color != nullptr && c < 3 ? color[3 * i + c] : 255;
+    if (index_count > 0)
+      AT_DISPATCH_INTEGRAL_TYPES(faces.scalar_type(), "glb", [&] {
+        const scalar_t* index = faces.data_ptr<scalar_t>();
+        char* indices = out.data() + bin + position_bytes + color_bytes;
+        for (int64_t i = 0; i < index_count; ++i) {
+          const auto value = static_cast<uint32_t>(index[i]);
+          std::memcpy(indices + 4 * i, &value, 4);
+        }
+      });
   }
   return out;
 }
@@ -158,7 +186,7 @@ std::string encode_glb_mesh(const at::Tensor& vertices, const at::Tensor& colors
   if (!faces.defined() || faces.dim() != 2 || faces.size(1) != 3 ||
       !at::isIntegralType(faces.scalar_type(), /*includeBool=*/false))
     throw std::invalid_argument("glb: faces must be integer (T, 3)");
-  return encode(vertices, colors, faces.to(at::kCPU, at::kLong));
+  return encode(vertices, colors, faces);
 }
 
 void write_glb_mesh(const std::string& path, const at::Tensor& vertices, const at::Tensor& colors,
