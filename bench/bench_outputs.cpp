@@ -23,16 +23,16 @@ namespace fs = std::filesystem;
 // range(0) x range(1): the image size.
 void BM_WriteAllOutputs(benchmark::State& state) {
   const int64_t width = state.range(0), height = state.range(1);
-  const camera::Camera camera = camera::parse_camera(
-      "PINHOLE " + std::to_string(width) + " " + std::to_string(height) + " " +
-      std::to_string(0.8 * width) + " " + std::to_string(0.8 * width) + " " +
-      std::to_string(0.5 * width) + " " + std::to_string(0.5 * height));
+  const camera::Camera camera =
+      camera::parse_camera("PINHOLE " + std::to_string(width) + " " + std::to_string(height) + " " +
+                           std::to_string(0.8 * width) + " " + std::to_string(0.8 * width) + " " +
+                           std::to_string(0.5 * width) + " " + std::to_string(0.5 * height));
   const camera::Rays map = camera.ray_map(at::kFloat);
   const at::Tensor column = at::linspace(0, 1, width).view({1, width});
   const at::Tensor row = at::linspace(0, 1, height).view({height, 1});
   // A wall 4 m away with bumps, 1 m nearer on the left third, and a round hole.
-  const at::Tensor distance = 4.0 + 0.2 * at::sin(40 * column) * at::cos(30 * row) -
-                              (column < 1.0 / 3).to(at::kFloat);
+  const at::Tensor distance =
+      4.0 + 0.2 * at::sin(40 * column) * at::cos(30 * row) - (column < 1.0 / 3).to(at::kFloat);
   const at::Tensor hole = (column - 0.7).square() + (row - 0.5).square() < 0.01;
   const at::Tensor mask = map.valid & ~hole;
   predict::Prediction p =
