@@ -22,6 +22,7 @@
 #include "cli/image_list.h"
 #include "cli/progress.h"
 #include "cli/view_server.h"
+#include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/io/camera_file.h"
@@ -59,6 +60,7 @@ struct PredictCommandOptions {
   std::string device = "cpu";
   std::string precision = "fp32";
   bool view = false;
+  int threads = 0;  // 0: every core
 };
 
 // --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool
@@ -358,7 +360,11 @@ void add_predict_command(CLI::App& app) {
   command->add_flag("--view", options->view,
                     "When every image is written, show OUT in the browser as `omnipoint view OUT` "
                     "does (Ctrl-C stops)");
-  command->callback([options] { run_predict(*options); });
+  add_threads_option(command, &options->threads);
+  command->callback([options] {
+    use_threads(options->threads);
+    run_predict(*options);
+  });
 }
 
 }  // namespace omnipoint::cli
