@@ -26,4 +26,5 @@ build/src/cli/omnipoint predict --out out/demo/predict_with_camera examples/imag
 $omnipoint examples/images/fisheye.png --camera examples/images/fisheye.txt
 $omnipoint examples/images/panorama.png --camera examples/images/panorama.json
 echo "predictions written to out/demo/predict/<image>/ and out/demo/predict_with_camera/pinhole/"
-echo "(points.ply, points.glb, points/distance/depth/rays/normals .npy, mask/depth/distance/depth_vis/preview .png, camera.json, cameras.txt)"
+echo "(points.ply, points.glb, points/distance/depth/rays/normals .npy, mask/depth/distance/depth_vis/preview/image .png, camera.json, cameras.txt)"
+echo "to look at them in a browser: build/src/cli/omnipoint view out/demo"

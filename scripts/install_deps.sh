@@ -4,12 +4,18 @@ set -euo pipefail
 
 # libgloo-dev: the gloo headers that c10d's ProcessGroupGloo.hpp includes (Gloo itself is in libtorch_cpu).
 # liblzf-dev: LZF for binary_compressed .pcd point clouds.
+# libcpp-httplib-dev: the web server of `omnipoint view`.
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev libgloo-dev liblzf-dev)
+          libopencv-dev libgloo-dev liblzf-dev libcpp-httplib-dev)
+# npm: the build installs the viewer's pinned three.js with `npm ci`. A Node.js from elsewhere
+# (NodeSource) brings its own npm; Debian's nodejs needs Debian's npm beside it.
+command -v npm >/dev/null || packages+=(nodejs npm)
 if [[ "${1:-}" == "--tests" ]]; then
-  # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/.
-  packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy)
+  # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/,
+  # Chromium for the viewer's browser test.
+  packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy
+             chromium)
 fi
 
 missing=()

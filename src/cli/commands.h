@@ -17,5 +17,6 @@ void add_predict_command(CLI::App& app);
 void add_reproject_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
 void add_train_command(CLI::App& app);
+void add_view_command(CLI::App& app);
 
 }  // namespace omnipoint::cli

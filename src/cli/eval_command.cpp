@@ -20,6 +20,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/threads.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
 #include "omnipoint/infer/infer.h"
@@ -40,6 +41,7 @@ struct EvalOptions {
   int64_t num_tokens = 0;
   uint64_t seed = 0;
   double constant_distance = 5.0;
+  int threads = 0;  // 0: every core
 };
 
 eval::Predictor model_predictor(const EvalOptions& options) {
@@ -182,8 +184,10 @@ void add_eval_command(CLI::App& app) {
   cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
   cmd->add_option("--device", options->device, "cpu | cuda")->capture_default_str();
   cmd->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
+  add_threads_option(cmd, &options->threads);
   auto* sparse = cmd->get_option("--sparse-depth");
   cmd->callback([options, sparse] {
+    use_threads(options->threads);
     if (options->device != "cpu" && options->device != "cuda")
       throw std::invalid_argument("--device " + options->device + ": expected cpu or cuda");
     if (options->num_tokens < 0)

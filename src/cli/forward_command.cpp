@@ -10,6 +10,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/threads.h"
 #include "omnipoint/infer/infer.h"
 #include "omnipoint/io/npy.h"
 
@@ -23,6 +24,7 @@ struct ForwardOptions {
   std::string out_dir;
   int64_t num_tokens = 0;  // 0: the model's default
   std::string precision = "auto";
+  int threads = 0;  // 0: every core
 };
 
 // The image as a float32 (B,3,H,W) tensor in [0,1]; std::invalid_argument otherwise.
@@ -85,10 +87,12 @@ void add_forward_command(CLI::App& app) {
       "Target number of ViT patch tokens (default: the top of the model's num_tokens_range)");
   command->add_option("--out", options->out_dir, "Output folder (created if missing)")->required();
   command->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
+  add_threads_option(command, &options->threads);
   command->callback([options, num_tokens] {
     if (num_tokens->count() > 0 && options->num_tokens <= 0)
       throw std::invalid_argument("--num-tokens must be a positive integer, got " +
                                   std::to_string(options->num_tokens));
+    use_threads(options->threads);
     run_forward(*options);
   });
 }

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
+#include "cli/threads.h"
 
 // A function-try-block: nothing escapes main, not even from setting the commands up or from
 // printing an error.
@@ -23,8 +24,10 @@ int main(int argc, char** argv) try {
   omnipoint::cli::add_reproject_command(app);
   omnipoint::cli::add_synth_command(app);
   omnipoint::cli::add_train_command(app);
+  omnipoint::cli::add_view_command(app);
 
   try {
+    omnipoint::cli::use_threads(0);  // every core; a command's --threads overrides
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version

@@ -16,10 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "cli/bundled.h"
 #include "cli/commands.h"
 #include "cli/device.h"
 #include "cli/image_list.h"
 #include "cli/progress.h"
+#include "cli/threads.h"
+#include "cli/view_server.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/io/camera_file.h"
@@ -56,6 +59,8 @@ struct PredictCommandOptions {
   std::string fit_model = "auto";
   std::string device = "cpu";
   std::string precision = "auto";
+  bool view = false;
+  int threads = 0;  // 0: every core
 };
 
 // --model, else $OMNIPOINT_MODEL, else the bundled model: installed beside the tool
@@ -65,15 +70,9 @@ std::string model_path_or_bundled(const std::string& given) {
   if (const char* environment = std::getenv("OMNIPOINT_MODEL");
       environment != nullptr && *environment != '\0')
     return environment;
-  std::error_code error;
-  const fs::path executable = fs::read_symlink("/proc/self/exe", error);
-  const fs::path installed = executable.parent_path().parent_path() / OMNIPOINT_INSTALLED_MODEL;
-  if (!error && fs::exists(installed)) return installed.string();
-  if (fs::exists(OMNIPOINT_SOURCE_MODEL)) return OMNIPOINT_SOURCE_MODEL;
-  throw std::invalid_argument(
-      std::string("no model given and the bundled one is missing (looked for ") +
-      installed.string() + " and " + OMNIPOINT_SOURCE_MODEL +
-      "): pass a checkpoint with --model FILE");
+  return find_bundled(OMNIPOINT_INSTALLED_MODEL, OMNIPOINT_SOURCE_MODEL,
+                      "no model given and the bundled one", ": pass a checkpoint with --model FILE")
+      .string();
 }
 
 // The sparse depth file of one image: the file itself, or in a folder the file with the image's
@@ -274,6 +273,11 @@ void run_predict(const PredictCommandOptions& options) {
   if (failed > 0)
     throw std::runtime_error(std::to_string(failed) + " of " + std::to_string(total) +
                              " images failed (see above)");
+  if (options.view) {
+    ViewOptions view;
+    view.dir = options.out_dir;
+    serve_predictions(view);
+  }
 }
 
 }  // namespace
@@ -353,7 +357,14 @@ void add_predict_command(CLI::App& app) {
       "the simplest candidate of the smallest angular residual, camera/fit.h; none: no fit)");
   command->add_option("--device", options->device, "cpu, cuda or cuda:N (default cpu)");
   command->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
-  command->callback([options] { run_predict(*options); });
+  command->add_flag("--view", options->view,
+                    "When every image is written, show OUT in the browser as `omnipoint view OUT` "
+                    "does (Ctrl-C stops)");
+  add_threads_option(command, &options->threads);
+  command->callback([options] {
+    use_threads(options->threads);
+    run_predict(*options);
+  });
 }
 
 }  // namespace omnipoint::cli

@@ -12,6 +12,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
 #include "omnipoint/data/synth/synthesize.h"
@@ -27,6 +28,7 @@ struct SynthArgs {
   int count = 1;
   int64_t per_split = 0;
   bool no_shadows = false, no_ao = false;
+  int threads = 0;  // 0: every core
 };
 
 data::synth::SynthOptions synth_options(const SynthArgs& args) {
@@ -79,7 +81,9 @@ void add_synth_command(CLI::App& app) {
   cmd->add_option("--device", args->device, "cpu | cuda")->capture_default_str();
   cmd->add_flag("--no-shadows", args->no_shadows, "skip shadow rays (faster)");
   cmd->add_flag("--no-ao", args->no_ao, "skip ambient-occlusion rays (faster)");
+  add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
+    use_threads(args->threads);
     if (!args->benchmark.empty()) {
       render_benchmark(*args);
       return;

@@ -18,6 +18,7 @@
 
 #include "cli/commands.h"
 #include "cli/progress.h"
+#include "cli/threads.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/safetensors.h"
@@ -88,6 +89,9 @@ void run_train(const TrainOptions& options) {
     return;
   }
 
+  // Each rank (or the one process) on the config's threads, OpenBLAS's pool included: the
+  // default 1 keeps a step deterministic, and the ranks of --nproc on their own cores.
+  use_threads(config.threads);
   train::TrainState resumed;
   const bool resume = !options.resume.empty();
   if (resume) resumed = train::read_checkpoint(options.resume);

@@ -3,9 +3,7 @@
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
-#include <iostream>
 #include <stdexcept>
 
 #include "omnipoint/camera/camera.h"
@@ -125,9 +123,9 @@ TEST(FitCameraAuto, RejectsTooFewRays) {
       {"fit_camera_auto", "at least 16 valid rays"});
 }
 
-// Issue 17's budget: the camera fit within 200 ms at 640x480 on a 2-core CPU. Printed, not
-// asserted (machines differ); the report quotes it.
-TEST(FitCameraAuto, TimingAt640x480) {
+// The three kinds at 640x480, exact and noisy: the true model is chosen. (Their timing is
+// bench/bench_camera_fit.cpp's, docs/PERFORMANCE.md.)
+TEST(FitCameraAuto, ChoosesTheTrueModelAt640x480) {
   for (const std::string spec :
        {"PINHOLE 640 480 525 523 319.5 241",
         "OPENCV_FISHEYE 640 480 180 180 320 240 0.02 -0.005 0 0", "EQUIRECTANGULAR 640 320"}) {
@@ -135,14 +133,8 @@ TEST(FitCameraAuto, TimingAt640x480) {
     const Rays map = truth.ray_map(at::kFloat);
     for (const bool with_noise : {false, true}) {
       const at::Tensor rays = with_noise ? noisy(map.rays, 6) : map.rays;
-      const auto start = std::chrono::steady_clock::now();
       const CameraFit fit = fit_camera_auto(640, truth.height(), rays, map.valid);
-      const double ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-              .count();
-      std::cout << spec << (with_noise ? " + noise" : "") << " -> " << fit.camera.model_name()
-                << " in " << ms << " ms\n";
-      EXPECT_EQ(fit.camera.model_name(), truth.model_name());
+      EXPECT_EQ(fit.camera.model_name(), truth.model_name()) << spec << with_noise;
     }
   }
 }

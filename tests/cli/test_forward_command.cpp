@@ -53,8 +53,9 @@ void expect_close(const at::Tensor& actual, const at::Tensor& reference, const s
 
 TEST_F(ForwardCommand, WritesTheFixtureOutputs) {
   const fs::path out = dir_ / "out";
-  const omnipoint::test::CliRun result = run("--model " + kModel + " --input " + kFixture +
-                                             "/input.npy --num-tokens 300 --out " + out.string());
+  const omnipoint::test::CliRun result =
+      run("--model " + kModel + " --input " + kFixture +
+          "/input.npy --num-tokens 300 --precision fp32 --out " + out.string());
   ASSERT_EQ(result.status, 0) << result.err;
   EXPECT_EQ(result.err, "");
   const at::Tensor points = read_npy((out / "points.npy").string());

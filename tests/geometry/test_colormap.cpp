@@ -58,3 +58,13 @@ TEST(Colormap, DepthNearIsWarmAndInvalidIsBlack) {
   const auto empty = colorize_depth(at::zeros({4, 4}));
   EXPECT_TRUE(empty.eq(0).all().item<bool>());
 }
+
+TEST(Colormap, InterpolatesLinearlyBetweenAnchors) {
+  // Turbo's first anchors (48, 18, 59) at 0 and (57, 42, 115) at 8/255: their midpoint at 4/255,
+  // in float and double alike; a batch maps element by element.
+  for (const auto dtype : {at::kFloat, at::kDouble}) {
+    const auto rgb = apply_colormap(at::full({2, 1}, 4.0, dtype), 0, 255) * 255;
+    ASSERT_EQ(rgb.sizes(), (at::IntArrayRef{2, 1, 3}));
+    EXPECT_TRUE(at::allclose(rgb[1][0], at::tensor({52.5, 30.0, 87.0}, dtype), 1e-5, 1e-4)) << rgb;
+  }
+}

@@ -92,6 +92,9 @@ TEST(PredictOutputs, OracleFilesRoundTrip) {
   EXPECT_TRUE(at::equal(io::read_npy((folder / "normals.npy").string()),
                         geometry::normals_from_point_map(p.points, p.mask).normals));
   EXPECT_EQ(io::read_image((folder / "preview.png").string()).size(2), 3);
+  // image.png: the input's 8-bit RGB.
+  EXPECT_TRUE(at::equal(io::read_image_values((folder / "image.png").string()),
+                        synth.sample.image.mul(255).round()));
   EXPECT_EQ(io::read_image((folder / "depth_vis.png").string()).sizes(),
             synth.sample.image.sizes());
   const auto json = nlohmann::json::parse(io::read_file((folder / "camera.json").string()));
@@ -175,17 +178,17 @@ TEST(OutputList, GroupsAndFileNames) {
   EXPECT_EQ(parse_output_list("depth,vis"),
             (Files{"camera.json", "depth.png", "depth_vis.png", "distance.png"}));
   const Files defaults = {"camera.json",  "depth.npy",    "depth.png",  "depth_vis.png",
-                          "distance.npy", "distance.png", "mask.png",   "normals.npy",
-                          "points.glb",   "points.npy",   "points.ply", "preview.png",
-                          "rays.npy"};
+                          "distance.npy", "distance.png", "image.png",  "mask.png",
+                          "normals.npy",  "points.glb",   "points.npy", "points.ply",
+                          "preview.png",  "rays.npy"};
   EXPECT_EQ(default_output_files(), defaults);
   EXPECT_EQ(parse_output_list("default"), defaults);
   Files all = defaults;
   all.insert("mesh.glb");
   EXPECT_EQ(parse_output_list("all"), all);
   EXPECT_EQ(parse_output_list("png,glb"),
-            (Files{"camera.json", "depth.png", "depth_vis.png", "distance.png", "mask.png",
-                   "points.glb", "preview.png"}));
+            (Files{"camera.json", "depth.png", "depth_vis.png", "distance.png", "image.png",
+                   "mask.png", "points.glb", "preview.png"}));
 }
 
 TEST(OutputList, BadNamesListTheValidOnes) {
@@ -200,7 +203,7 @@ TEST(OutputList, BadNamesListTheValidOnes) {
   const std::string unknown = message("ply,exr");
   EXPECT_EQ(
       unknown.rfind("outputs: unknown name \"exr\" in \"ply,exr\"; valid: ply, glb, npy, depth, "
-                    "mask, vis, preview, png, mesh, camera, default, all, or a file name "
+                    "mask, vis, preview, image, png, mesh, camera, default, all, or a file name "
                     "(camera.json, depth.npy, ",
                     0),
       0u)

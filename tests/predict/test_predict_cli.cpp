@@ -73,7 +73,7 @@ TEST_F(PredictCli, WritesEveryOutput) {
   for (const std::string name : {"good", "grey16"})
     for (const std::string file :
          {"points.ply", "points.glb", "points.npy", "distance.npy", "depth.npy", "rays.npy",
-          "mask.png", "depth.png", "depth_vis.png", "preview.png", "camera.json"})
+          "mask.png", "depth.png", "depth_vis.png", "preview.png", "image.png", "camera.json"})
       EXPECT_TRUE(fs::is_regular_file(dir_ / "out" / name / file)) << name << "/" << file;
   EXPECT_NE(run.err.find("[2/2]"), std::string::npos) << run.err;  // progress for several images
 }

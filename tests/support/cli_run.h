@@ -15,14 +15,18 @@ struct CliRun {
   std::string out, err;
 };
 
-// Runs `omnipoint ARGS`, its stdout and stderr captured through files in `scratch`.
-inline CliRun run_omnipoint(const std::string& args, const std::filesystem::path& scratch) {
+// Runs a shell command, its stdout and stderr captured through files in `scratch`.
+inline CliRun run_command(const std::string& command, const std::filesystem::path& scratch) {
   std::filesystem::create_directories(scratch);
   const std::filesystem::path out = scratch / "stdout", err = scratch / "stderr";
-  const std::string command =
-      std::string(OMNIPOINT_CLI) + " " + args + " >" + out.string() + " 2>" + err.string();
-  const int status = std::system(command.c_str());
+  const std::string redirected = command + " >" + out.string() + " 2>" + err.string();
+  const int status = std::system(redirected.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+// Runs `omnipoint ARGS` (run_command).
+inline CliRun run_omnipoint(const std::string& args, const std::filesystem::path& scratch) {
+  return run_command(std::string(OMNIPOINT_CLI) + " " + args, scratch);
 }
 
 }  // namespace omnipoint::test

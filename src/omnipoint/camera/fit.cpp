@@ -14,20 +14,43 @@ struct Samples {
   at::Tensor pixels;  // (N, 2) pixel centres, float64
 };
 
+// At most max_samples of the valid pixels with a finite non-zero ray, evenly spread: found on a
+// regular pixel grid of about 4 max_samples pixels (halving its spacing while it holds fewer
+// usable pixels than max_samples, down to every pixel), then every k-th of those. The cost
+// follows max_samples, not the image size.
 Samples sample_valid_pixels(const at::Tensor& rays, const at::Tensor& valid, int64_t width,
                             int64_t max_samples) {
-  // Selected first, converted after: the full map stays in its dtype.
-  const auto flat = rays.to(at::kCPU).reshape({-1, 3});
-  const auto usable =
-      valid.to(at::kCPU).to(at::kBool).reshape({-1}) & all_finite(flat) & (length(flat) > 0);
-  auto index = usable.nonzero().squeeze(1);
-  const int64_t stride = std::max<int64_t>(1, (index.numel() + max_samples - 1) / max_samples);
-  index = index.slice(0, 0, index.numel(), stride);
-  const auto selected = flat.index_select(0, index).to(at::kDouble);
-  const auto pixels = at::stack({at::remainder(index, width).to(at::kDouble) + 0.5,
-                                 at::floor_divide(index, width).to(at::kDouble) + 0.5},
-                                -1);
-  return {selected / length(selected).unsqueeze(-1), pixels};
+  const int64_t height = rays.size(0);
+  const at::Tensor all_rays = rays.to(at::kCPU), all_valid = valid.to(at::kCPU);
+  const double pixels_per_cell = static_cast<double>(width * height) / (4.0 * max_samples);
+  int64_t spacing = std::max<int64_t>(1, static_cast<int64_t>(std::sqrt(pixels_per_cell)));
+  while (true) {
+    const int64_t offset = (spacing - 1) / 2;  // the grid centred in its cells
+    const auto on_grid = [&](const at::Tensor& map) {
+      return map.slice(0, offset, height, spacing).slice(1, offset, width, spacing);
+    };
+    // Selected first, converted after: the full map stays in its dtype.
+    const at::Tensor grid_rays = on_grid(all_rays);
+    const int64_t grid_width = grid_rays.size(1);
+    const at::Tensor flat = grid_rays.reshape({-1, 3});
+    const at::Tensor usable =
+        on_grid(all_valid).to(at::kBool).reshape({-1}) & all_finite(flat) & (length(flat) > 0);
+    at::Tensor index = usable.nonzero().squeeze(1);
+    if (index.numel() < max_samples && spacing > 1) {
+      spacing /= 2;
+      continue;
+    }
+    const int64_t stride = std::max<int64_t>(1, (index.numel() + max_samples - 1) / max_samples);
+    index = index.slice(0, 0, index.numel(), stride);
+    const auto selected = flat.index_select(0, index).to(at::kDouble);
+    const auto centre = [&](const at::Tensor& grid_coordinate) {
+      return (grid_coordinate * spacing + offset).to(at::kDouble) + 0.5;
+    };
+    const auto pixels = at::stack(
+        {centre(at::remainder(index, grid_width)), centre(at::floor_divide(index, grid_width))},
+        -1);
+    return {selected / length(selected).unsqueeze(-1), pixels};
+  }
 }
 
 // Least-squares line value = slope * a + offset.

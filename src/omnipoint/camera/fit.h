@@ -14,16 +14,20 @@ namespace omnipoint::camera {
 // Least squares on the reprojection error of the rays (H, W, 3) at valid (H, W) pixel
 // centres: Levenberg-Marquardt on the parameters (finite-difference Jacobian), started from
 // a pinhole fitted in closed form to the rays nearest the axis (CameraModel::initial_params).
-// Uses at most `max_samples` valid pixels on a regular subsample. Throws std::invalid_argument
+// Uses at most `max_samples` valid pixels, evenly spread: those on a regular pixel grid of
+// about 4 max_samples pixels (finer where fewer are valid), so the cost does not grow with the
+// image (every function here samples so). On a noisy 12 MP ray map the fitted parameters equal
+// those of a 16x denser subsample within 1e-3 relative (absolute below 1) and the median
+// residual within 0.01 degrees (tests/camera/test_fit.cpp). Throws std::invalid_argument
 // when the shapes disagree with width x height, there are too few valid rays, or the fit
 // ends at parameters the model rejects.
 Camera fit_camera(const std::string& model, int64_t width, int64_t height, const at::Tensor& rays,
                   const at::Tensor& valid, int64_t max_samples = 4096);
 
 // The angle between a camera's rays and given rays (H, W, 3) over the valid (H, W) pixels
-// with a finite non-zero ray, on a regular subsample of at most `max_samples` of them (every
-// one up to 128x128 pixels; the bound keeps the cost at ~10 ms on a 640x480 map); a pixel
-// where the camera has no ray counts 180 degrees.
+// with a finite non-zero ray, on the even subsample of fit_camera of at most `max_samples` of
+// them (every one up to 128x128 pixels); a pixel where the camera has no ray counts 180
+// degrees.
 struct AngularResidual {
   double median_deg = 0;
   double mean_deg = 0;

@@ -1,11 +1,13 @@
 #include "omnipoint/geometry/colormap.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <vector>
 
 namespace omnipoint::geometry {
 namespace {
@@ -38,33 +40,47 @@ at::Tensor apply_colormap(const at::Tensor& values, double low, double high, Col
   if (valid.defined() && (valid.scalar_type() != at::kBool || valid.sizes() != values.sizes())) {
     throw std::invalid_argument("apply_colormap: valid must be a bool tensor of the values' shape");
   }
-  const auto dtype = at::isFloatingType(values.scalar_type()) ? values.scalar_type() : at::kFloat;
-  const at::Tensor v = values.to(dtype);
-  const auto& table = map == Colormap::Turbo ? kTurbo : kViridis;
-  std::vector<float> colors, positions;
-  for (int i = 0; i < kAnchors; ++i) {
-    positions.push_back(std::min(8 * i, 255) / 255.0f);
-    for (int c = 0; c < 3; ++c) colors.push_back(table[i][c] / 255.0f);
-  }
-  const auto opts = v.options();
-  const at::Tensor anchors = at::tensor(colors).view({kAnchors, 3}).to(opts);
-  const at::Tensor where_at = at::tensor(positions).to(opts);
-  const double span = high > low ? high - low : 1.0;
-  const at::Tensor t = at::nan_to_num((v - low) / span, 0.0, 1.0, 0.0).clamp(0, 1);
-  // Segment i spans [positions[i], positions[i + 1]].
-  const at::Tensor segment =
-      (at::bucketize(t, where_at, /*out_int32=*/false, /*right=*/true) - 1).clamp(0, kAnchors - 2);
-  const at::Tensor start = where_at.index_select(0, segment.reshape(-1)).view(t.sizes());
-  const at::Tensor stop = where_at.index_select(0, (segment + 1).reshape(-1)).view(t.sizes());
-  const at::Tensor fraction = ((t - start) / (stop - start)).unsqueeze(-1);
-  auto shape = t.sizes().vec();
+  const auto dtype = values.scalar_type() == at::kDouble ? at::kDouble : at::kFloat;
+  const at::Tensor v = values.to(at::kCPU, dtype).contiguous();
+  const at::Tensor keep = valid.defined() ? valid.to(at::kCPU).contiguous() : at::Tensor();
+  auto shape = v.sizes().vec();
   shape.push_back(3);
-  const at::Tensor c0 = anchors.index_select(0, segment.reshape(-1)).view(shape);
-  const at::Tensor c1 = anchors.index_select(0, (segment + 1).reshape(-1)).view(shape);
-  at::Tensor rgb = c0 + (c1 - c0) * fraction;
-  at::Tensor keep = at::isfinite(v);
-  if (valid.defined()) keep = keep.logical_and(valid);
-  return at::where(keep.unsqueeze(-1), rgb, at::zeros_like(rgb));
+  at::Tensor rgb = at::empty(shape, v.options());
+  const auto& table = map == Colormap::Turbo ? kTurbo : kViridis;
+  AT_DISPATCH_FLOATING_TYPES(dtype, "apply_colormap", [&] {
+    // Anchor i sits at position min(8 i, 255) / 255; segment i spans anchors i and i + 1.
+    scalar_t positions[kAnchors], colors[kAnchors][3];
+    for (int i = 0; i < kAnchors; ++i) {
+      positions[i] = static_cast<scalar_t>(std::min(8 * i, 255) / 255.0f);
+      for (int c = 0; c < 3; ++c) colors[i][c] = static_cast<scalar_t>(table[i][c] / 255.0f);
+    }
+    const auto offset = static_cast<scalar_t>(low);
+    const auto span = static_cast<scalar_t>(high > low ? high - low : 1.0);
+    const scalar_t* in = v.data_ptr<scalar_t>();
+    const bool* shown = keep.defined() ? keep.data_ptr<bool>() : nullptr;
+    scalar_t* out = rgb.data_ptr<scalar_t>();
+    at::parallel_for(0, v.numel(), 16384, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) {
+        if (!std::isfinite(in[i]) || (shown != nullptr && !shown[i])) {
+          out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0;
+          continue;
+        }
+        const scalar_t t = std::clamp((in[i] - offset) / span, scalar_t(0), scalar_t(1));
+        // The last anchor position <= t (bucketize's), within the 32 segments.
+        int segment = std::min(static_cast<int>(t * 255 / 8), kAnchors - 2);
+        while (segment > 0 && positions[segment] > t) --segment;
+        while (segment < kAnchors - 2 && positions[segment + 1] <= t) ++segment;
+        const scalar_t start = positions[segment], stop = positions[segment + 1];
+        const scalar_t fraction = (t - start) / (stop - start);
+        for (int c = 0; c < 3; ++c) {
+          const scalar_t c0 = colors[segment][c], c1 = colors[segment + 1][c];
+          out[3 * i + c] = c0 + (c1 - c0) * fraction;
+        }
+      }
+    });
+  });
+  return rgb.to(values.device(),
+                at::isFloatingType(values.scalar_type()) ? values.scalar_type() : at::kFloat);
 }
 
 at::Tensor colorize_depth(const at::Tensor& depth, const at::Tensor& valid, Colormap map) {
@@ -75,21 +91,32 @@ at::Tensor colorize_depth(const at::Tensor& depth, const at::Tensor& valid, Colo
   if (valid.defined() && (valid.scalar_type() != at::kBool || valid.sizes() != depth.sizes())) {
     throw std::invalid_argument("colorize_depth: valid must be a bool tensor of the depth's shape");
   }
-  at::Tensor ok = at::isfinite(depth).logical_and(depth > 0);
-  if (valid.defined()) ok = ok.logical_and(valid);
-  const at::Tensor disparity =
-      at::where(ok, 1.0 / at::where(ok, depth, at::ones_like(depth)), at::zeros_like(depth));
-  // Per-map range of the valid disparities, then a stretch to [0, 1].
-  const at::Tensor flat = disparity.flatten(-2), flat_ok = ok.flatten(-2);
-  const double inf = std::numeric_limits<double>::infinity();
-  const at::Tensor lo =
-      at::where(flat_ok, flat, at::full_like(flat, inf)).amin(-1, true).unsqueeze(-1);
-  const at::Tensor hi =
-      at::where(flat_ok, flat, at::full_like(flat, -inf)).amax(-1, true).unsqueeze(-1);
-  const at::Tensor range = at::where(hi > lo, hi - lo, at::ones_like(hi));
-  // Maps without valid pixels have lo = +inf; `ok` is false everywhere there.
-  const at::Tensor unit = at::where(ok, (disparity - lo) / range, at::zeros_like(disparity));
-  return apply_colormap(unit, 0.0, 1.0, map, ok);
+  const auto dtype = depth.scalar_type() == at::kDouble ? at::kDouble : at::kFloat;
+  const at::Tensor d = depth.to(at::kCPU, dtype).contiguous();
+  const at::Tensor given = valid.defined() ? valid.to(at::kCPU).contiguous() : at::Tensor();
+  at::Tensor unit = at::empty_like(d);
+  at::Tensor ok = at::empty(d.sizes(), d.options().dtype(at::kBool));
+  const int64_t pixels = depth.size(-2) * depth.size(-1);
+  const int64_t maps = pixels == 0 ? 0 : d.numel() / pixels;
+  AT_DISPATCH_FLOATING_TYPES(dtype, "colorize_depth", [&] {
+    const scalar_t* in = d.data_ptr<scalar_t>();
+    const bool* given_ok = given.defined() ? given.data_ptr<bool>() : nullptr;
+    scalar_t* out = unit.data_ptr<scalar_t>();
+    bool* shown = ok.data_ptr<bool>();
+    for (int64_t m = 0; m < maps; ++m) {
+      // Disparity of the valid pixels and its range over this map, then a stretch to [0, 1].
+      scalar_t lo = std::numeric_limits<scalar_t>::infinity(), hi = -lo;
+      for (int64_t i = m * pixels; i < (m + 1) * pixels; ++i) {
+        shown[i] = std::isfinite(in[i]) && in[i] > 0 && (given_ok == nullptr || given_ok[i]);
+        out[i] = shown[i] ? scalar_t(1) / in[i] : scalar_t(0);
+        if (shown[i]) lo = std::min(lo, out[i]), hi = std::max(hi, out[i]);
+      }
+      const scalar_t range = hi > lo ? hi - lo : scalar_t(1);
+      for (int64_t i = m * pixels; i < (m + 1) * pixels; ++i)
+        out[i] = shown[i] ? (out[i] - lo) / range : scalar_t(0);
+    }
+  });
+  return apply_colormap(unit, 0.0, 1.0, map, ok).to(depth.device(), depth.scalar_type());
 }
 
 }  // namespace omnipoint::geometry

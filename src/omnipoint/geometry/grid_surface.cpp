@@ -1,9 +1,15 @@
 #include "omnipoint/geometry/grid_surface.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace omnipoint::geometry {
 
@@ -12,18 +18,45 @@ at::Tensor depth_edge_mask(const at::Tensor& distance, const at::Tensor& mask, d
     throw std::invalid_argument("depth_edge_mask: distance must be a floating tensor (..., H, W)");
   if (mask.defined() && (mask.scalar_type() != at::kBool || mask.sizes() != distance.sizes()))
     throw std::invalid_argument("depth_edge_mask: mask must be a bool tensor like the distance");
-  at::Tensor valid = at::isfinite(distance) & (distance > 0);
-  if (mask.defined()) valid = valid & mask;
-  if (rtol <= 0) return at::zeros_like(valid);
+  if (rtol <= 0) return at::zeros(distance.sizes(), distance.options().dtype(at::kBool));
+  const at::Tensor given = mask.defined() ? mask.to(at::kCPU).contiguous() : at::Tensor();
+  const bool native = distance.scalar_type() == at::kFloat || distance.scalar_type() == at::kDouble;
+  const at::Tensor d =
+      distance.to(at::kCPU, native ? distance.scalar_type() : at::kFloat).contiguous();
+  at::Tensor edges = at::zeros(d.sizes(), d.options().dtype(at::kBool));
   const int64_t height = distance.size(-2), width = distance.size(-1);
-  // Pooling over (B, 1, H, W); -inf for invalid pixels keeps them out of both extremes (max
-  // pooling pads with -inf too, so the image border is no edge).
-  const at::Tensor ok = valid.reshape({-1, 1, height, width});
-  const at::Tensor d = distance.reshape({-1, 1, height, width});
-  const at::Tensor excluded = at::full({}, -std::numeric_limits<double>::infinity(), d.options());
-  const at::Tensor high = at::max_pool2d(at::where(ok, d, excluded), {3, 3}, {1, 1}, {1, 1});
-  const at::Tensor low = -at::max_pool2d(at::where(ok, -d, excluded), {3, 3}, {1, 1}, {1, 1});
-  return (ok & (high - low > rtol * d)).reshape(distance.sizes());
+  const int64_t rows = d.numel() == 0 ? 0 : d.numel() / width;  // (..., H) map rows
+  at::Tensor usable = at::empty(d.sizes(), d.options().dtype(at::kBool));
+  AT_DISPATCH_FLOATING_TYPES(d.scalar_type(), "depth_edge_mask", [&] {
+    const scalar_t* value = d.data_ptr<scalar_t>();
+    const bool* given_ok = given.defined() ? given.data_ptr<bool>() : nullptr;
+    bool* ok = usable.data_ptr<bool>();
+    for (int64_t i = 0; i < d.numel(); ++i)
+      ok[i] = std::isfinite(value[i]) && value[i] > 0 && (given_ok == nullptr || given_ok[i]);
+    bool* edge = edges.data_ptr<bool>();
+    const auto tolerance = static_cast<scalar_t>(rtol);
+    // The extremes of each valid pixel's 3x3 neighbourhood of valid pixels (the map's border
+    // clips it), rows in parallel.
+    at::parallel_for(0, rows, std::max<int64_t>(1, 16384 / width), [&](int64_t begin, int64_t end) {
+      for (int64_t row = begin; row < end; ++row) {
+        const int64_t y = row % height;
+        for (int64_t x = 0; x < width; ++x) {
+          const int64_t i = row * width + x;
+          if (!ok[i]) continue;
+          scalar_t low = value[i], high = value[i];
+          for (int64_t dy = y > 0 ? -1 : 0; dy <= (y + 1 < height ? 1 : 0); ++dy)
+            for (int64_t dx = x > 0 ? -1 : 0; dx <= (x + 1 < width ? 1 : 0); ++dx) {
+              const int64_t j = i + dy * width + dx;
+              if (!ok[j]) continue;
+              low = std::min(low, value[j]);
+              high = std::max(high, value[j]);
+            }
+          edge[i] = high - low > tolerance * value[i];
+        }
+      }
+    });
+  });
+  return edges.to(distance.device());
 }
 
 GridMesh grid_mesh(const at::Tensor& points, const at::Tensor& mask) {
@@ -37,35 +70,50 @@ GridMesh grid_mesh(const at::Tensor& points, const at::Tensor& mask) {
   if (height < 2 || width < 2)
     return {at::zeros({0, 3}, points.options().device(at::kCPU)), at::zeros({0}, at::kLong),
             at::zeros({0, 3}, at::kInt)};
-  const at::Tensor valid = mask.to(at::kCPU);
-  // A cell (r, c) spans the pixels (r..r+1, c..c+1).
+  const at::Tensor valid = mask.to(at::kCPU).contiguous();
+  const bool* ok = valid.data_ptr<bool>();
+  // A cell (r, c) spans the pixels (r..r+1, c..c+1); kept when all four are valid.
   const int64_t cell_rows = height - 1, cell_cols = width - 1;
-  const auto corner = [&](int64_t dy, int64_t dx) {
-    return valid.narrow(0, dy, cell_rows).narrow(1, dx, cell_cols);
+  std::vector<uint8_t> kept(static_cast<size_t>(cell_rows * cell_cols));
+  int64_t cells = 0;
+  for (int64_t r = 0; r < cell_rows; ++r)
+    for (int64_t c = 0; c < cell_cols; ++c) {
+      const int64_t i = r * width + c;
+      const bool all = ok[i] && ok[i + 1] && ok[i + width] && ok[i + width + 1];
+      kept[r * cell_cols + c] = all;
+      cells += all;
+    }
+  // Vertices: the pixels of some kept cell (a pixel is a corner of up to four cells), numbered
+  // in row-major order.
+  const auto cell_kept = [&](int64_t r, int64_t c) {
+    return r >= 0 && r < cell_rows && c >= 0 && c < cell_cols && kept[r * cell_cols + c];
   };
-  const at::Tensor cells = corner(0, 0) & corner(1, 0) & corner(0, 1) & corner(1, 1);
-  const at::Tensor cell_index = cells.nonzero();  // (C, 2) row, col
-  const at::Tensor top_left = cell_index.select(1, 0) * width + cell_index.select(1, 1);
-  const at::Tensor top_right = top_left + 1, bottom_left = top_left + width,
-                   bottom_right = bottom_left + 1;
+  std::vector<int32_t> vertex_of_pixel(static_cast<size_t>(height * width), -1);
+  std::vector<int64_t> used;
+  for (int64_t y = 0; y < height; ++y)
+    for (int64_t x = 0; x < width; ++x)
+      if (cell_kept(y - 1, x - 1) || cell_kept(y - 1, x) || cell_kept(y, x - 1) ||
+          cell_kept(y, x)) {
+        vertex_of_pixel[y * width + x] = static_cast<int32_t>(used.size());
+        used.push_back(y * width + x);
+      }
   // (top-left, bottom-left, top-right) and (top-right, bottom-left, bottom-right): both
   // counter-clockwise in the image (y down), i.e. facing the camera.
-  const at::Tensor pixel_faces = at::stack({at::stack({top_left, bottom_left, top_right}, 1),
-                                            at::stack({top_right, bottom_left, bottom_right}, 1)},
-                                           1)
-                                     .reshape({-1, 3});
-  // Vertices: the pixels of some kept cell (a pixel is a corner of up to four cells).
-  const at::Tensor padded = at::constant_pad_nd(cells.to(at::kByte), {1, 1, 1, 1}, 0);
-  const auto cell_at = [&](int64_t dy, int64_t dx) {
-    return padded.narrow(0, dy, height).narrow(1, dx, width);
-  };
-  const at::Tensor used =
-      (cell_at(0, 0) | cell_at(1, 0) | cell_at(0, 1) | cell_at(1, 1)).to(at::kBool).reshape({-1});
-  const at::Tensor pixels = used.nonzero().squeeze(1);
-  at::Tensor vertex_of_pixel = at::full({height * width}, -1, at::kLong);
-  vertex_of_pixel.index_put_({pixels}, at::arange(pixels.size(0), at::kLong));
-  return {points.to(at::kCPU).reshape({-1, 3}).index_select(0, pixels), pixels,
-          vertex_of_pixel.index_select(0, pixel_faces.reshape({-1})).reshape({-1, 3}).to(at::kInt)};
+  at::Tensor faces = at::empty({2 * cells, 3}, at::kInt);
+  int32_t* face = faces.data_ptr<int32_t>();
+  for (int64_t r = 0; r < cell_rows; ++r)
+    for (int64_t c = 0; c < cell_cols; ++c) {
+      if (!kept[r * cell_cols + c]) continue;
+      const int64_t top_left = r * width + c;
+      const int32_t tl = vertex_of_pixel[top_left], tr = vertex_of_pixel[top_left + 1],
+                    bl = vertex_of_pixel[top_left + width],
+                    br = vertex_of_pixel[top_left + width + 1];
+      const int32_t triangles[6] = {tl, bl, tr, tr, bl, br};
+      std::copy(triangles, triangles + 6, face);
+      face += 6;
+    }
+  const at::Tensor pixels = at::tensor(at::ArrayRef<int64_t>(used.data(), used.size()), at::kLong);
+  return {points.to(at::kCPU).reshape({-1, 3}).index_select(0, pixels), pixels, faces};
 }
 
 }  // namespace omnipoint::geometry

@@ -1,7 +1,13 @@
 #include "omnipoint/io/image.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
 #include <set>
 #include <stdexcept>
 #include <vector>
@@ -103,38 +109,62 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
   }
   if (image.numel() == 0) bad("the image is empty");
   if (float_bits != 8 && float_bits != 16) bad("float_bits must be 8 or 16");
-  at::Tensor t = image.to(at::kCPU);
-  bool sixteen = false;
-  if (t.scalar_type() == at::kBool) {
-    t = t.to(at::kByte) * 255;
-  } else if (t.scalar_type() == at::kByte) {
-  } else if (t.scalar_type() == at::kShort || t.scalar_type() == at::kInt ||
-             t.scalar_type() == at::kLong) {
-    if (t.min().item<int64_t>() < 0 || t.max().item<int64_t>() > 65535)
-      bad("16-bit values must lie in [0, 65535]");
-    t = t.to(at::kInt);
-    sixteen = true;
-  } else if (at::isFloatingType(t.scalar_type())) {
-    if (at::isnan(t).any().item<bool>()) bad("the image contains NaN");
-    const double top = float_bits == 16 ? 65535.0 : 255.0;
-    t = (t.to(at::kDouble).clamp(0, 1) * top).round().to(at::kInt);
-    sixteen = float_bits == 16;
-    if (!sixteen) t = t.to(at::kByte);
-  } else {
+  const at::ScalarType type = image.scalar_type();
+  const bool integer = type == at::kShort || type == at::kInt || type == at::kLong;
+  if (!integer && type != at::kBool && type != at::kByte && !at::isFloatingType(type))
     bad("unsupported dtype (expected bool, uint8, int16/32/64 or floating)");
-  }
-  t = t.contiguous();
+  const at::Tensor t = image.to(at::kCPU).contiguous();
+  const bool sixteen = integer || (at::isFloatingType(type) && float_bits == 16);
   const int channels = t.dim() == 3 ? static_cast<int>(t.size(2)) : 1;
   const int rows = static_cast<int>(t.size(0)), cols = static_cast<int>(t.size(1));
-  cv::Mat m;
-  if (sixteen) {
-    cv::Mat(rows, cols, CV_MAKETYPE(CV_32S, channels), t.data_ptr())
-        .convertTo(m, CV_MAKETYPE(CV_16U, channels));
+  // One pass from the tensor into the PNG's pixels, RGB(A) to OpenCV's BGR(A) on the way.
+  cv::Mat m(rows, cols, CV_MAKETYPE(sixteen ? CV_16U : CV_8U, channels));
+  const int64_t count = t.numel();
+  const auto target = [channels](int64_t i) {
+    const int64_t c = i % channels;
+    return channels >= 3 && c < 3 ? i - c + (2 - c) : i;
+  };
+  const auto fill = [&](auto* out, const auto& code) {
+    at::parallel_for(0, count, 65536, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) out[target(i)] = code(i);
+    });
+  };
+  if (type == at::kBool) {
+    const bool* in = t.data_ptr<bool>();
+    fill(m.ptr<uint8_t>(), [&](int64_t i) { return static_cast<uint8_t>(in[i] ? 255 : 0); });
+  } else if (type == at::kByte) {
+    const uint8_t* in = t.data_ptr<uint8_t>();
+    fill(m.ptr<uint8_t>(), [&](int64_t i) { return in[i]; });
+  } else if (integer) {
+    std::atomic<bool> out_of_range{false};
+    AT_DISPATCH_INTEGRAL_TYPES(type, "write_image_png", [&] {
+      const scalar_t* in = t.data_ptr<scalar_t>();
+      fill(m.ptr<uint16_t>(), [&](int64_t i) {
+        const int64_t value = in[i];
+        if (value < 0 || value > 65535) out_of_range = true;
+        return static_cast<uint16_t>(std::clamp<int64_t>(value, 0, 65535));
+      });
+    });
+    if (out_of_range) bad("16-bit values must lie in [0, 65535]");
   } else {
-    m = cv::Mat(rows, cols, CV_MAKETYPE(CV_8U, channels), t.data_ptr()).clone();
+    const at::Tensor values = type == at::kDouble ? t : t.to(at::kFloat);
+    const double top = float_bits == 16 ? 65535.0 : 255.0;
+    std::atomic<bool> nan{false};
+    AT_DISPATCH_FLOATING_TYPES(values.scalar_type(), "write_image_png", [&] {
+      const scalar_t* in = values.data_ptr<scalar_t>();
+      const auto code = [&](int64_t i) {
+        const double value = in[i];
+        if (std::isnan(value)) nan = true;
+        return std::isnan(value) ? 0.0 : std::nearbyint(std::clamp(value, 0.0, 1.0) * top);
+      };
+      if (sixteen) {
+        fill(m.ptr<uint16_t>(), [&](int64_t i) { return static_cast<uint16_t>(code(i)); });
+      } else {
+        fill(m.ptr<uint8_t>(), [&](int64_t i) { return static_cast<uint8_t>(code(i)); });
+      }
+    });
+    if (nan) bad("the image contains NaN");
   }
-  if (channels == 3) cv::cvtColor(m, m, cv::COLOR_RGB2BGR);
-  if (channels == 4) cv::cvtColor(m, m, cv::COLOR_RGBA2BGRA);
   std::vector<uchar> encoded;
   if (!cv::imencode(".png", m, encoded)) throw std::runtime_error(path + ": PNG encoding failed");
   write_file_atomically(path, [&](std::ostream& out) {

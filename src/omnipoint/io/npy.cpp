@@ -221,8 +221,10 @@ at::Tensor read_npy(const std::string& path) {
   return parse_npy(content.data(), content.size(), path);
 }
 
-std::string encode_npy(const at::Tensor& tensor) {
-  const at::Tensor t = tensor.detach().to(at::kCPU).contiguous();
+namespace {
+
+// The magic, version and padded header of a contiguous CPU tensor's .npy file.
+std::string npy_header(const at::Tensor& t) {
   const char* descr = nullptr;
   for (const auto& d : kDtypes) {
     if (t.scalar_type() == d.type) descr = d.descr;
@@ -247,14 +249,27 @@ std::string encode_npy(const at::Tensor& tensor) {
   out.push_back('\x00');
   out.push_back(static_cast<char>(header.size() & 0xff));
   out.push_back(static_cast<char>((header.size() >> 8) & 0xff));
-  out += header;
+  return out + header;
+}
+
+}  // namespace
+
+std::string encode_npy(const at::Tensor& tensor) {
+  const at::Tensor t = tensor.detach().to(at::kCPU).contiguous();
+  std::string out = npy_header(t);
   out.append(static_cast<const char*>(t.data_ptr()), t.numel() * t.element_size());
   return out;
 }
 
 void write_npy(const std::string& path, const at::Tensor& tensor) {
-  const std::string bytes = encode_npy(tensor);
-  write_file_atomically(path, [&](std::ostream& out) { out.write(bytes.data(), bytes.size()); });
+  // The data straight from the tensor: no copy of a file that can be hundreds of MB.
+  const at::Tensor t = tensor.detach().to(at::kCPU).contiguous();
+  const std::string header = npy_header(t);
+  write_file_atomically(path, [&](std::ostream& out) {
+    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+    out.write(static_cast<const char*>(t.data_ptr()),
+              static_cast<std::streamsize>(t.numel() * t.element_size()));
+  });
 }
 
 }  // namespace omnipoint::io

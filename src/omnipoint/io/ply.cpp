@@ -2,6 +2,7 @@
 
 #include <ATen/ATen.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cstdint>
 #include <cstdlib>
@@ -198,17 +199,22 @@ void write_ply(const std::string& path, const at::Tensor& points, const at::Tens
   if (rgb.defined()) header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   header << "end_header\n";
   const std::size_t record = 12 + (rgb.defined() ? 3 : 0);
-  std::string data(static_cast<std::size_t>(n) * record, '\0');
   const float* p = xyz.data_ptr<float>();
   const std::uint8_t* c = rgb.defined() ? rgb.data_ptr<std::uint8_t>() : nullptr;
-  for (std::int64_t i = 0; i < n; ++i) {
-    std::memcpy(&data[i * record], p + 3 * i, 12);
-    if (c) std::memcpy(&data[i * record + 12], c + 3 * i, 3);
-  }
   const std::string head = header.str();
   write_file_atomically(path, [&](std::ostream& out) {
     out.write(head.data(), static_cast<std::streamsize>(head.size()));
-    out.write(data.data(), static_cast<std::streamsize>(data.size()));
+    // Interleaved through one reused block: a copy of the whole cloud would be as big as the file.
+    constexpr std::int64_t kBlock = 65536;
+    std::string block(static_cast<std::size_t>(kBlock) * record, '\0');
+    for (std::int64_t first = 0; first < n; first += kBlock) {
+      const std::int64_t count = std::min(kBlock, n - first);
+      for (std::int64_t i = 0; i < count; ++i) {
+        std::memcpy(&block[i * record], p + 3 * (first + i), 12);
+        if (c) std::memcpy(&block[i * record + 12], c + 3 * (first + i), 3);
+      }
+      out.write(block.data(), static_cast<std::streamsize>(count * record));
+    }
   });
 }
 

@@ -18,6 +18,8 @@
 //                   the range or under half a unit); camera.json gives scale, range and counts.
 //   depth_vis.png   colour-mapped inverse depth (distance, so panoramas colour too)
 //   preview.png     the cloud from an oblique viewpoint (preview.h)
+//   image.png       8-bit RGB, the image the prediction was made from (at its size, after
+//                   --max-size), so that the folder shows it beside its maps (`omnipoint view`)
 //   points_world.ply  with a camera-from-world pose (OutputOptions): the valid points in that
 //                   world frame (`predict --colmap`: the reconstruction's frame and units)
 //   mesh.glb        grid triangulation of the point map (geometry::grid_mesh) with the image's
@@ -56,7 +58,7 @@ struct OutputOptions {
 
 // The `--outputs` list: comma-separated group names or file names, e.g. "ply,npy,mesh":
 //   ply points.ply · glb points.glb · npy the five .npy · depth depth.png + distance.png ·
-//   mask mask.png · vis depth_vis.png · preview preview.png · png the five .png ·
+//   mask mask.png · vis depth_vis.png · preview preview.png · image image.png · png the six .png ·
 //   mesh mesh.glb · camera camera.json only · default default_output_files() · all every file
 // camera.json is always written. Unknown or empty names -> std::invalid_argument listing the
 // valid ones.

@@ -1,0 +1,24 @@
+#include "cli/bundled.h"
+
+#include <stdexcept>
+#include <system_error>
+#include <vector>
+
+namespace omnipoint::cli {
+
+std::filesystem::path find_bundled(const std::string& installed, const std::string& built,
+                                   const std::string& missing, const std::string& advice) {
+  std::error_code error;
+  const std::filesystem::path executable = std::filesystem::read_symlink("/proc/self/exe", error);
+  std::vector<std::filesystem::path> candidates;
+  if (!error) candidates.push_back(executable.parent_path().parent_path() / installed);
+  candidates.emplace_back(built);
+  std::string looked_for;
+  for (const std::filesystem::path& candidate : candidates) {
+    if (std::filesystem::exists(candidate)) return candidate;
+    looked_for += (looked_for.empty() ? "" : " and ") + candidate.string();
+  }
+  throw std::invalid_argument(missing + " is missing (looked for " + looked_for + ")" + advice);
+}
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,15 @@
+#pragma once
+// Files the tool ships (the model, the viewer's page): found beside an installed tool
+// (<prefix>/bin/omnipoint -> <prefix>/<installed>), else where the build left them.
+#include <filesystem>
+#include <string>
+
+namespace omnipoint::cli {
+
+// The first that exists of <prefix>/`installed` (relative to the install prefix, which is found
+// from the running executable) and `built` (a path in the source or build tree). Neither ->
+// std::invalid_argument "<missing> is missing (looked for A and B)<advice>".
+std::filesystem::path find_bundled(const std::string& installed, const std::string& built,
+                                   const std::string& missing, const std::string& advice);
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,61 @@
+#include "cli/threads.h"
+
+#include <ATen/Parallel.h>
+#include <dlfcn.h>
+#include <unistd.h>
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace omnipoint::cli {
+namespace {
+
+// LibTorch's OpenMP workers busy-wait after each parallel region unless told otherwise; where
+// the cores are taken (a shared machine, the ranks of --nproc) that spinning costs more than
+// the second thread gains: a ViT-S predict on two threads took 1.9x as long spinning as
+// waiting passively, under load (docs/PERFORMANCE.md). libgomp reads OMP_WAIT_POLICY once, as
+// it loads, before main: without it this program sets it and starts itself again (a policy the
+// user set is kept; when the restart fails, the run carries on as it is).
+void restart_with_passive_openmp() {
+  std::ifstream file("/proc/self/cmdline", std::ios::binary);
+  std::vector<std::string> arguments;
+  for (std::string argument; std::getline(file, argument, '\0');) arguments.push_back(argument);
+  if (arguments.empty()) return;
+  std::vector<char*> argv;
+  for (std::string& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  setenv("OMP_WAIT_POLICY", "passive", /*overwrite=*/1);
+  execv("/proc/self/exe", argv.data());
+}
+
+}  // namespace
+
+int thread_count(int requested, unsigned hardware) {
+  if (requested > 0) return requested;
+  return static_cast<int>(std::max(1u, hardware));
+}
+
+void use_threads(int requested) {
+  const int threads = thread_count(requested, std::thread::hardware_concurrency());
+  if (threads > 1 && std::getenv("OMP_WAIT_POLICY") == nullptr) restart_with_passive_openmp();
+  at::set_num_threads(threads);
+  // libtorch links libopenblas itself (not this executable), so the symbol is found in the
+  // process rather than linked; LibTorch never sets OpenBLAS's count.
+  using SetThreads = void (*)(int);
+  if (void* symbol = dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))
+    reinterpret_cast<SetThreads>(symbol)(threads);
+}
+
+CLI::Option* add_threads_option(CLI::App* command, int* threads) {
+  return command
+      ->add_option("--threads", *threads,
+                   "Threads to compute on (LibTorch and OpenBLAS; default: every core)")
+      ->check(CLI::PositiveNumber);
+}
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,39 @@
+#pragma once
+// `omnipoint view`: a read-only web server for the prediction folders under one folder (the
+// `predict` layout, predict/outputs.h) and the page that shows them (src/cli/view/: one HTML,
+// one JS module, one CSS; three.js from the npm package the build installs).
+//
+// Routes (GET and HEAD only; other methods get 405):
+//   /, /view.js, /view.css    the page
+//   /three/...                three.js's files (the import map's `three` and `three/addons/`)
+//   /api/predictions          {"root", "max_points", "predictions": [{"name", "points"}]}
+//   /api/prediction?name=NAME one folder: its files, camera.json, the camera's class and,
+//                             unless it is too wide for a frustum, the rays through the image
+//                             border
+//   /cloud?name=NAME          its points.glb, or at most max_points of its points.ply as a GLB;
+//                             headers X-Omnipoint-Points-Total and X-Omnipoint-Points-Shown
+//   /files/NAME/FILE          a file of the folder
+//   /colourised/NAME/FILE     a 16-bit map of it (depth.png) as a colour picture
+// Only files under the served folder are read: a path with a `..` component, or one whose
+// canonical form (symlinks resolved) leaves the folder, gets 403; a missing one 404.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace omnipoint::cli {
+
+struct ViewOptions {
+  std::filesystem::path dir;  // the folder of predictions
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0: any free port
+  int64_t max_points = 1'500'000;
+  bool open_browser = false;
+};
+
+// Serves the prediction folders under options.dir (those holding a camera.json, the folder
+// itself included as ".") until interrupted. Prints "omnipoint view: serving N prediction(s) of DIR at URL" on
+// stdout once listening (port 0: the port the system chose). A DIR that is missing or holds no
+// prediction, and a port that cannot be bound, -> std::invalid_argument / std::runtime_error.
+void serve_predictions(const ViewOptions& options);
+
+}  // namespace omnipoint::cli

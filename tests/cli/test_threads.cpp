@@ -1,0 +1,77 @@
+// The thread count of the commands (cli/threads.h): the rule, both pools set alike, and
+// `--threads` refusing what is not a positive count with one line.
+#include <ATen/Parallel.h>
+#include <dlfcn.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+#include <thread>
+
+#include "cli/threads.h"
+#include "support/cli_run.h"
+
+namespace omnipoint::cli {
+namespace {
+
+TEST(ThreadCount, DefaultIsEveryCoreAndAGivenCountWins) {
+  EXPECT_EQ(thread_count(0, 8), 8);
+  EXPECT_EQ(thread_count(0, 2), 2);
+  EXPECT_EQ(thread_count(3, 8), 3);
+  EXPECT_EQ(thread_count(16, 2), 16);  // more than the cores, when asked for
+  EXPECT_EQ(thread_count(0, 0), 1);    // the machine cannot tell
+}
+
+// OpenBLAS's own count, where this LibTorch has OpenBLAS (-1 otherwise).
+int openblas_threads() {
+  using GetThreads = int (*)();
+  void* symbol = dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
+  return symbol != nullptr ? reinterpret_cast<GetThreads>(symbol)() : -1;
+}
+
+TEST(ThreadCount, UseThreadsSetsLibTorchAndOpenBlasAlike) {
+  setenv("OMP_WAIT_POLICY", "passive", 0);  // no restart of this test (the tool's is below)
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (const int requested : {1, 0, 3}) {
+    use_threads(requested);
+    const int expected = requested > 0 ? requested : cores;
+    EXPECT_EQ(at::get_num_threads(), expected) << requested;
+    if (openblas_threads() != -1) {
+      EXPECT_EQ(openblas_threads(), expected) << requested;
+    }
+  }
+}
+
+// libgomp's own report of what it read: the tool restarted itself with passive OpenMP workers
+// (a spin count of 0), unless the caller chose a policy.
+TEST(ThreadCount, TheToolRunsPassiveOpenMpWorkers) {
+  const auto scratch = test::fresh_process_dir("omnipoint_threads_policy");
+  const auto libgomp_report = [&](const std::string& environment) {
+    const std::string err = (scratch / "stderr").string();
+    const std::string command = "env -u OMP_WAIT_POLICY " + environment +
+                                " OMP_DISPLAY_ENV=verbose " + OMNIPOINT_CLI + " --version 2>" + err;
+    EXPECT_EQ(std::system(command.c_str()), 0) << command;
+    return test::slurp(err);
+  };
+  EXPECT_NE(libgomp_report("").find("GOMP_SPINCOUNT = '0'"), std::string::npos);
+  EXPECT_EQ(libgomp_report("OMP_WAIT_POLICY=active").find("GOMP_SPINCOUNT = '0'"),
+            std::string::npos);
+}
+
+TEST(ThreadsOption, NotAPositiveCountIsOneErrorLine) {
+  const auto scratch = test::fresh_process_dir("omnipoint_threads_option");
+  for (const std::string arguments :
+       {"forward --model m.safetensors --input i.npy --out o --threads 0",
+        "predict image.png --threads -2", "eval --baseline oracle --data d --out o --threads two",
+        "synth --camera \"PINHOLE 8 8 8 8 4 4\" --out o --threads 1.5"}) {
+    const test::CliRun run = test::run_omnipoint(arguments, scratch);
+    EXPECT_NE(run.status, 0) << arguments;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << arguments << ": " << run.err;
+    EXPECT_EQ(run.err.rfind("omnipoint: error: ", 0), 0u) << arguments << ": " << run.err;
+    EXPECT_NE(run.err.find("--threads"), std::string::npos) << arguments << ": " << run.err;
+  }
+}
+
+}  // namespace
+}  // namespace omnipoint::cli
