@@ -133,8 +133,7 @@ at::Tensor AttentionImpl::forward(const at::Tensor& x) {
     const int64_t size = std::min(group, batch_heads - start);
     const at::Tensor scores =
         at::bmm(q.narrow(0, start, size), k.narrow(0, start, size).transpose(1, 2));
-    // The softmax in the residual stream's precision (16-bit scores under autocast).
-    groups.push_back(at::bmm(at::softmax(scores, -1, x.scalar_type()), v.narrow(0, start, size)));
+    groups.push_back(at::bmm(at::softmax(scores, -1), v.narrow(0, start, size)));
   }
   const at::Tensor heads = groups.size() == 1 ? groups[0] : at::cat(groups, 0);  // (B·heads, N, hd)
   return proj(heads.view({batch, num_heads_, tokens, head_dim})

@@ -2,8 +2,9 @@
 // Reduced-precision inference. bf16 (CPU or CUDA) and fp16 (CUDA) run the network's matrix
 // products and convolutions in the 16-bit type through LibTorch's autocast; the models keep
 // what is numerically sensitive in the input's precision themselves: the residual stream and
-// its layer norms, the softmax of the attention, the resize of the heads to the image and what
-// follows it, the metric-scale head (AutocastOff). So everything after the network is fp32.
+// its layer norms, the resize of the heads to the image and what follows it, the metric-scale
+// head (AutocastOff). So everything after the network is fp32. (The attention's softmax runs in
+// bf16 as autocast leaves it: in fp32 it cost ViT-L 1.6 s and moved no point measurably.)
 #include <c10/core/DeviceType.h>
 #include <c10/core/ScalarType.h>
 
