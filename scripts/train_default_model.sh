@@ -1,16 +1,25 @@
 #!/usr/bin/env bash
 # How the bundled model (models/omnipoint_default.safetensors) is made; docs/TRAINING.md,
-# "The bundled model". About 75 minutes on a 2-core CPU.
+# "The bundled model".
 #   scripts/train_default_model.sh [OMNIPOINT_BINARY]
-# Stage 1 (perspective pretraining) writes runs/default_model/perspective/; its EMA weights
-# initialise stages 2 and 3 (camera-universal fine-tuning with P2A, A2P and the conditions,
-# then the mask head) and are A2P's teacher. A second, shorter pass of stages 2 and 3 with the
-# conditions at probability 0.5 (refine.json) follows; its EMA weights are shipped as F16.
+# 1. Renders the training pool (benchmarks/training_pool_v1.json, 20,000 samples, ~40 minutes on
+#    2 cores) into data/training_pool_v1/, two shards side by side; an interrupted render resumes.
+# 2. Trains examples/train/default_model/omnipoint_default.json on two data-parallel ranks (one
+#    core each) into runs/default_model/; an interrupted run resumes from its last checkpoint.
+# 3. Ships the EMA weights as F16.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 omnipoint=${1:-build/src/cli/omnipoint}
-"$omnipoint" train --config examples/train/default_model/perspective.json
-"$omnipoint" train --config examples/train/default_model/universal.json
-"$omnipoint" train --config examples/train/default_model/refine.json
-/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model/refine/model_ema.safetensors \
+config=examples/train/default_model/omnipoint_default.json
+
+"$omnipoint" synth --definition benchmarks/training_pool_v1.json --set train --core-files \
+  --threads 1 --shard 0/2 --out data/training_pool_v1 > /dev/null &
+"$omnipoint" synth --definition benchmarks/training_pool_v1.json --set train --core-files \
+  --threads 1 --shard 1/2 --out data/training_pool_v1 > /dev/null
+wait
+
+resume=()
+[[ -e runs/default_model/checkpoints/latest ]] && resume=(--resume runs/default_model)
+"$omnipoint" train --config "$config" --nproc 2 "${resume[@]}"
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model/model_ema.safetensors \
   models/omnipoint_default.safetensors

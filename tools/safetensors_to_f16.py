@@ -2,7 +2,7 @@
 """Copies a .safetensors file with every F32/F64 tensor stored as F16 (other dtypes and the
 __metadata__, e.g. an OmniPoint model's config, unchanged). The bundled model is shipped so:
 
-    tools/safetensors_to_f16.py runs/default_model/universal/model_ema.safetensors \
+    tools/safetensors_to_f16.py runs/default_model/model_ema.safetensors \
         models/omnipoint_default.safetensors
 
 Loading converts back to the module's dtype (omnipoint/model/state_dict.h). Fails with one

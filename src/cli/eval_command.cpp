@@ -35,7 +35,7 @@ namespace fs = std::filesystem;
 struct EvalOptions {
   std::string model, random_model, predictions, baseline, out, label, device = "cpu";
   std::string precision = "auto";
-  std::vector<std::string> data;
+  std::vector<std::string> data, baseline_data;
   bool intrinsics = false, moge_relative = false, save_points = false;
   std::vector<std::string> sparse_depth;  // no value: the default count
   int64_t num_tokens = 0;
@@ -89,6 +89,8 @@ eval::Predictor make_predictor(const EvalOptions& options) {
   if (given != 1)
     throw std::invalid_argument(
         "give exactly one of --model, --random-model, --predictions, --baseline");
+  if (options.baseline != "median" && !options.baseline_data.empty())
+    throw std::invalid_argument("--baseline-data is for --baseline median only");
   if (!options.model.empty()) return model_predictor(options);
   if (!options.random_model.empty()) return random_model_predictor(options);
   if (!options.predictions.empty()) return external_predictor(options);
@@ -97,9 +99,16 @@ eval::Predictor make_predictor(const EvalOptions& options) {
     predictor = eval::oracle_predictor();
   } else if (options.baseline == "constant") {
     predictor = eval::constant_distance_predictor(options.constant_distance);
+  } else if (options.baseline == "median") {
+    if (options.baseline_data.empty())
+      throw std::invalid_argument(
+          "--baseline median needs --baseline-data: the training samples of the cameras");
+    predictor = eval::median_map_predictor(options.baseline_data);
   } else {
-    throw std::invalid_argument("--baseline " + options.baseline + ": expected oracle or constant");
+    throw std::invalid_argument("--baseline " + options.baseline +
+                                ": expected oracle, constant or median");
   }
+
   if (!options.label.empty()) predictor.name = options.label;
   return predictor;
 }
@@ -157,7 +166,12 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--predictions", options->predictions,
                   "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
   cmd->add_option("--baseline", options->baseline,
-                  "oracle (GT rays and distances) | constant (GT rays, --constant-distance)");
+                  "oracle (GT rays and distances) | constant (GT rays, --constant-distance) | "
+                  "median (GT rays, the per-pixel median distance of --baseline-data's samples "
+                  "of the same camera: picture-blind)");
+  cmd->add_option("--baseline-data", options->baseline_data,
+                  "for --baseline median: training sample folders (e.g. the benchmark's main set)")
+      ->expected(1, -1);
   cmd->add_option("--data", options->data, "dataset folders (sample folders, MoGe benchmark roots)")
       ->required()
       ->expected(1, -1);

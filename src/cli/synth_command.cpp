@@ -2,6 +2,7 @@
 // versioned benchmark definition (benchmarks/*.json) into OUT/<split>/<index>.
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -27,7 +28,9 @@ struct SynthArgs {
   std::uint64_t seed = 0;
   int count = 1;
   int64_t per_split = 0;
-  bool no_shadows = false, no_ao = false;
+  bool no_shadows = false, no_ao = false, core_files = false;
+  std::string shard_text = "0/1";
+  std::array<int64_t, 2> shard{0, 1};
   int threads = 0;  // 0: every core
 };
 
@@ -39,24 +42,60 @@ data::synth::SynthOptions synth_options(const SynthArgs& args) {
   return options;
 }
 
-// The benchmark's render settings are part of its definition; --no-shadows / --no-ao do not
-// apply. Prints one line per sample and the total time.
-void render_benchmark(const SynthArgs& args) {
+// A set definition (a benchmark or a training pool) into OUT/<split>/<index>. Its render
+// settings are part of the definition; --no-shadows / --no-ao do not apply. Each sample is
+// written into <folder>.partial and renamed into place when complete, so a folder that exists
+// is whole: an interrupted run resumes where it stopped (existing folders are kept), and
+// --shard K/N lets N processes share the work. Prints one line per sample and the total time.
+void render_definition(const SynthArgs& args) {
+  namespace fs = std::filesystem;
   const auto plan = data::synth::plan_benchmark(io::read_file(args.benchmark), args.benchmark,
                                                 args.set, args.per_split);
   auto options = synth_options(args);
   options.render = plan.render;
+  const auto files =
+      args.core_files ? data::synth::SynthFiles::kCore : data::synth::SynthFiles::kAll;
   const auto start = std::chrono::steady_clock::now();
-  for (const auto& sample : plan.samples) {
-    const auto folder = (std::filesystem::path(args.out) / sample.folder).string();
+  int64_t rendered = 0, kept = 0;
+  for (size_t i = static_cast<size_t>(args.shard[0]); i < plan.samples.size();
+       i += static_cast<size_t>(args.shard[1])) {
+    const auto& sample = plan.samples[i];
+    const fs::path folder = fs::path(args.out) / sample.folder;
+    if (fs::is_directory(folder)) {
+      ++kept;
+      continue;
+    }
+    const fs::path partial = folder.string() + ".partial";
+    fs::remove_all(partial);
     data::synth::write_synth_sample(
-        folder, data::synth::synthesize(sample.scene, sample.seed, sample.camera, options));
-    std::cout << folder << "\n";
+        partial.string(),
+        data::synth::synthesize(sample.scene, sample.seed, sample.camera, options), files);
+    fs::rename(partial, folder);
+    ++rendered;
+    std::cout << folder.string() << "\n";
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "synth: " << plan.name << " v" << plan.version << " set " << args.set << ": "
-            << plan.samples.size() << " samples in " << seconds << " s\n";
+            << rendered << " samples rendered in " << seconds << " s";
+  if (kept > 0) std::cerr << ", " << kept << " already there";
+  std::cerr << "\n";
+}
+
+// "K/N" with 0 <= K < N.
+std::array<int64_t, 2> parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  try {
+    if (slash != std::string::npos) {
+      size_t used_k = 0, used_n = 0;
+      const std::string k_text = text.substr(0, slash), n_text = text.substr(slash + 1);
+      const int64_t k = std::stoll(k_text, &used_k), n = std::stoll(n_text, &used_n);
+      if (used_k == k_text.size() && used_n == n_text.size() && n >= 1 && k >= 0 && k < n)
+        return {k, n};
+    }
+  } catch (const std::exception&) {
+  }
+  throw std::invalid_argument("--shard " + text + ": expected K/N with 0 <= K < N");
 }
 
 }  // namespace
@@ -72,11 +111,19 @@ void add_synth_command(CLI::App& app) {
   cmd->add_option("--scene", args->scene, "indoor | outdoor | object")->capture_default_str();
   cmd->add_option("--seed", args->seed, "seed of the first sample")->capture_default_str();
   cmd->add_option("--count", args->count, "number of samples")->capture_default_str();
-  cmd->add_option("--benchmark", args->benchmark,
-                  "render a benchmark definition (benchmarks/*.json) instead of --camera/--scene");
-  cmd->add_option("--set", args->set, "benchmark set: main | final")->capture_default_str();
-  cmd->add_option("--per-split", args->per_split, "benchmark: at most N samples per split (0: all)")
+  cmd->add_option("--benchmark,--definition", args->benchmark,
+                  "render a set definition (benchmarks/*.json: a benchmark or a training pool) "
+                  "instead of --camera/--scene; resumes where an earlier run stopped");
+  cmd->add_option("--set", args->set, "the definition's set: main | final | train ...")
       ->capture_default_str();
+  cmd->add_option("--per-split", args->per_split,
+                  "definition: at most N samples per split (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--shard", args->shard_text,
+                  "definition: render samples K, K+N, K+2N, ... (N processes share a set)")
+      ->capture_default_str();
+  cmd->add_flag("--core-files", args->core_files,
+                "write only image.png, distance.npy, mask.png and meta.json (what training reads)");
   cmd->add_option("--out", args->out, "output folder")->required();
   cmd->add_option("--device", args->device, "cpu | cuda")->capture_default_str();
   cmd->add_flag("--no-shadows", args->no_shadows, "skip shadow rays (faster)");
@@ -85,7 +132,8 @@ void add_synth_command(CLI::App& app) {
   cmd->callback([args] {
     use_threads(args->threads);
     if (!args->benchmark.empty()) {
-      render_benchmark(*args);
+      args->shard = parse_shard(args->shard_text);
+      render_definition(*args);
       return;
     }
     if (args->camera.empty())
@@ -100,7 +148,9 @@ void add_synth_command(CLI::App& app) {
       char name[32];
       std::snprintf(name, sizeof name, "%06llu", static_cast<unsigned long long>(seed));
       const auto folder = (std::filesystem::path(args->out) / name).string();
-      data::synth::write_synth_sample(folder, data::synth::synthesize(kind, seed, camera, options));
+      data::synth::write_synth_sample(
+          folder, data::synth::synthesize(kind, seed, camera, options),
+          args->core_files ? data::synth::SynthFiles::kCore : data::synth::SynthFiles::kAll);
       std::cout << folder << "\n";
     }
   });

@@ -141,6 +141,8 @@ void run_train(const TrainOptions& options) {
                              {"lr_backbone", record.lr_backbone},
                              {"lr_heads", record.lr_heads},
                              {"num_tokens", record.num_tokens},
+                             {"image_size", {record.width, record.height}},
+                             {"seconds", record.seconds},
                              {"images_per_s", rate}});
       if (record.skipped)
         std::fprintf(stderr, "train: step %lld skipped: non-finite loss or gradients\n",

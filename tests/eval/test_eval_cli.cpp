@@ -100,6 +100,49 @@ TEST_F(EvalCli, SynthBenchmarkWritesEverySplitAndSample) {
   EXPECT_FALSE(fs::exists(work_dir() / "again" / "L.FoV" / "0001"));
 }
 
+// A set rendered by two shards equals one render; a rerun keeps what exists and finishes what
+// an interrupted run left (a ".partial" folder); --core-files writes only what training reads.
+TEST_F(EvalCli, SynthDefinitionShardsResumeAndCoreFiles) {
+  const std::string definition = (work_dir() / "tiny.json").string();
+  const fs::path sharded = work_dir() / "sharded";
+  for (const char* shard : {"0/2", "1/2"}) {
+    const CliRun run = run_cli("synth --definition " + definition + " --shard " + shard +
+                               " --core-files --out " + sharded.string());
+    ASSERT_EQ(run.status, 0) << run.err;
+    EXPECT_NE(run.err.find("3 samples rendered"), std::string::npos) << run.err;
+  }
+  for (const char* split : {"S.FoV", "L.FoV", "360"})
+    for (const char* index : {"0000", "0001"}) {
+      const fs::path folder = sharded / split / index;
+      EXPECT_EQ(slurp(folder / "distance.npy"),
+                slurp(work_dir() / "data" / split / index / "distance.npy"))
+          << folder;
+      EXPECT_TRUE(fs::exists(folder / "image.png") && fs::exists(folder / "mask.png") &&
+                  fs::exists(folder / "meta.json"));
+      EXPECT_FALSE(fs::exists(folder / "rays.npy") || fs::exists(folder / "normals.npy") ||
+                   fs::exists(folder / "depth.npy"))
+          << folder;
+    }
+  // An interrupted run: one sample half written, another missing.
+  fs::remove_all(sharded / "360" / "0001");
+  fs::create_directories(sharded / "360" / "0001.partial");
+  std::ofstream(sharded / "360" / "0001.partial" / "image.png") << "half";
+  const CliRun resumed =
+      run_cli("synth --definition " + definition + " --core-files --out " + sharded.string());
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  EXPECT_NE(resumed.err.find("1 samples rendered"), std::string::npos) << resumed.err;
+  EXPECT_NE(resumed.err.find("5 already there"), std::string::npos) << resumed.err;
+  EXPECT_FALSE(fs::exists(sharded / "360" / "0001.partial"));
+  EXPECT_EQ(slurp(sharded / "360" / "0001" / "distance.npy"),
+            slurp(work_dir() / "data" / "360" / "0001" / "distance.npy"));
+  for (const char* bad : {"2/2", "1", "a/2", "0/0", "-1/2"}) {
+    const CliRun run = run_cli("synth --definition " + definition + " --shard " + bad + " --out " +
+                               (work_dir() / "bad_shard").string());
+    EXPECT_NE(run.status, 0) << bad;
+    EXPECT_NE(run.err.find("--shard"), std::string::npos) << run.err;
+  }
+}
+
 TEST_F(EvalCli, RandomOmniPointModelProducesTheTable) {
   const fs::path out = work_dir() / "eval_model";
   const CliRun run =
@@ -197,6 +240,34 @@ TEST_F(EvalCli, SparseDepthDefaultsToOneThousandPoints) {
   EXPECT_EQ(lines_of(slurp(out / "table.md"))[3].rfind("| Oracle | +D | 0.00 | 100.0 |", 0), 0u);
 }
 
+// The picture-blind baseline: the main set's per-pixel medians scored on the final set (the
+// same cameras, other scenes); the oracle-free scores lie between the oracle's and chance.
+TEST_F(EvalCli, MedianMapBaselineScoresTheFinalSetFromTheMainSet) {
+  const fs::path final_set = work_dir() / "final";
+  const CliRun synth = run_cli("synth --definition " + (work_dir() / "tiny.json").string() +
+                               " --set final --out " + final_set.string());
+  ASSERT_EQ(synth.status, 0) << synth.err;
+  const fs::path out = work_dir() / "eval_median";
+  // data(): the main set.
+  const CliRun run = run_cli("eval --baseline median --baseline-data " + data() + " --data " +
+                             final_set.string() + " --intrinsics --out " + out.string());
+  ASSERT_EQ(run.status, 0) << run.err;
+  const nlohmann::json summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(summary.at("samples_evaluated"), 6) << summary.dump();
+  EXPECT_NE(summary.at("model").get<std::string>().find("median distance map"), std::string::npos);
+  for (const char* split : {"S.FoV", "L.FoV", "360°"}) {
+    const double rel = summary.at("scores")
+                           .at(split)
+                           .at("+K")
+                           .at("entries")
+                           .at("points_scale_invariant")
+                           .at("rel")
+                           .get<double>();
+    EXPECT_GT(rel, 0.0) << split;
+    EXPECT_LT(rel, 1.0) << split;
+  }
+}
+
 TEST_F(EvalCli, BadInputsGiveOneClearLine) {
   const std::string out = " --out " + (work_dir() / "eval_bad").string();
   expect_one_error_line(
@@ -218,6 +289,11 @@ TEST_F(EvalCli, BadInputsGiveOneClearLine) {
               " --data " + data() + out),
       "exactly one of");
   expect_one_error_line(run_cli("eval --baseline best --data " + data() + out), "--baseline best");
+  expect_one_error_line(run_cli("eval --baseline median --data " + data() + out),
+                        "--baseline-data");
+  expect_one_error_line(
+      run_cli("eval --baseline constant --baseline-data " + data() + " --data " + data() + out),
+      "--baseline median only");
   expect_one_error_line(
       run_cli("synth --benchmark " + (work_dir() / "tiny.json").string() + " --set nope" + out),
       "no set \"nope\"");

@@ -14,6 +14,8 @@
 #include <stdexcept>
 
 #include "eval/eval_test_data.h"
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/data/sample.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
 #include "omnipoint/io/atomic_file.h"
@@ -292,6 +294,50 @@ TEST(RunnerBadInputs, BadSamplesAndMissingPredictionsAreSkippedAndCounted) {
   for (const auto& record : result.records)
     skip_records += nlohmann::json::parse(record).contains("skipped");
   EXPECT_EQ(skip_records, 2);
+  fs::remove_all(root);
+}
+
+// Three training samples of one pinhole: distances 1, 2 (row 0 unlabelled) and 6 everywhere.
+// The per-pixel median is 2, and 1 on row 0 (the lower middle of {1, 6}, torch's median).
+TEST(MedianMapBaseline, IsThePerPixelMedianOfTheTrainingSamplesOfTheCamera) {
+  const fs::path root =
+      fs::temp_directory_path() / ("omnipoint_eval_median_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  const auto pinhole = camera::parse_camera("PINHOLE 8 6 6 6 4 3");
+  const auto write = [&](const std::string& name, double value, bool label_row0) {
+    data::Sample sample{pinhole, at::full({6, 8, 3}, 0.5F), at::full({6, 8}, value, at::kFloat),
+                        at::ones({6, 8}, at::kBool), true};
+    if (!label_row0) {
+      sample.mask[0].fill_(false);
+      sample.distance[0].fill_(0.0);
+    }
+    data::write_sample((root / "train" / name).string(), sample);
+  };
+  write("a", 1.0, true);
+  write("b", 2.0, false);
+  write("c", 6.0, true);
+  const Predictor median = median_map_predictor({(root / "train").string()});
+  const data::Sample sample = data::read_sample((root / "train" / "a").string());
+  const EvalSample item{"d", "a", Split::kSmallFov, sample};
+  const GeometryPrediction prediction = median.predict(item, Conditions{});
+  at::Tensor expected = at::full({6, 8}, 2.0F);
+  expected[0].fill_(1.0);
+  EXPECT_TRUE(at::equal(prediction.distance, expected)) << prediction.distance;
+  EXPECT_TRUE(prediction.is_metric);
+  EXPECT_TRUE(at::allclose(prediction.rays, pinhole.ray_map(at::kFloat).rays));
+  // +D: rescaled by the median ratio of the samples to the map (here 3 at every sample).
+  Conditions conditions;
+  conditions.sparse_depth = at::zeros({6, 8});
+  conditions.sparse_depth[2][3] = 6.0;
+  conditions.sparse_depth[4][5] = 6.0;
+  conditions.sparse_depth[0][1] = 3.0;
+  EXPECT_TRUE(at::allclose(median.predict(item, conditions).distance, expected * 3.0));
+  // Another camera: no map, the sample is skipped as a missing prediction.
+  data::Sample other = sample;
+  other.camera = camera::parse_camera("PINHOLE 8 6 5 5 4 3");
+  EXPECT_THROW(median.predict(EvalSample{"d", "x", Split::kSmallFov, other}, Conditions{}),
+               MissingPrediction);
+  EXPECT_THROW(median_map_predictor({(root / "missing").string()}), std::runtime_error);
   fs::remove_all(root);
 }
 

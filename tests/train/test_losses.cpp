@@ -82,6 +82,39 @@ TEST(Losses, PerfectPredictionGivesZeroLoss) {
   EXPECT_LT(losses.total.item<double>(), 1e-10);
 }
 
+// align_points: s* from a random subset of the labelled pixels. Exact predictions keep their
+// exact scale; a noisy one gets a scale near the all-pixel fit; a subset as large as the image
+// changes nothing.
+TEST(Losses, ScaleFitOnAPixelSubset) {
+  const at::Tensor rays = pinhole_rays(2, 24, 24, 20.0);
+  const at::Tensor distance = plane_distance(rays);
+  LossTargets targets = make_targets(rays, distance);
+  targets.mask.index_put_({0, at::indexing::Slice(0, 3)}, false);
+  LossConfig config;
+  config.weights = {1, 0, 0, 0, 0, 0};
+  LossConfig subset = config;
+  subset.align_points = 32;
+  EXPECT_TRUE(at::allclose(
+      compute_losses(make_output(rays, 3.0 * distance), targets, subset, generator()).scale,
+      at::full({2}, 1.0 / 3.0, kDouble), 1e-12, 1e-12));
+  const at::Tensor noisy = 3.0 * distance * (1.0 + 0.1 * at::sin(37.0 * distance));
+  const at::Tensor all_scale =
+      compute_losses(make_output(rays, noisy), targets, config, generator()).scale;
+  const at::Tensor subset_scale =
+      compute_losses(make_output(rays, noisy), targets, subset, generator()).scale;
+  EXPECT_FALSE(at::equal(subset_scale, all_scale));
+  EXPECT_TRUE(at::allclose(subset_scale, all_scale, 0.05, 0.0)) << subset_scale << all_scale;
+  LossConfig whole = config;
+  whole.align_points = 24 * 24;
+  EXPECT_TRUE(at::equal(compute_losses(make_output(rays, noisy), targets, whole, generator()).scale,
+                        all_scale));
+  subset.point_loss = PointLoss::kDisjoint;
+  config.point_loss = PointLoss::kDisjoint;
+  EXPECT_TRUE(at::allclose(
+      compute_losses(make_output(rays, noisy), targets, subset, generator()).scale,
+      compute_losses(make_output(rays, noisy), targets, config, generator()).scale, 0.05, 0.0));
+}
+
 TEST(Losses, PointLossHandComputed) {
   // Two pixels on the optical axis at distance 1; predicted 1 and 2. The truncated ROE fit
   // min Σ min(1, |s d̂ − 1|) picks s* = 0.5 (cost 0.5) over s* = 1 (cost 1); the loss is the
@@ -169,6 +202,42 @@ TEST(Losses, LocalLossIsAffineInvariantPerPatchAndSeesLocalErrors) {
   // The same generator seed gives the same patches.
   EXPECT_EQ(local_loss(bumped, gt, rays, mask, global, 4, options, generator(3)).item<double>(),
             local_loss(bumped, gt, rays, mask, global, 4, options, generator(3)).item<double>());
+}
+
+// fit_points: the exact fit on a random subset of each patch. An affine copy of the GT is
+// still aligned exactly (any 3 points determine it); on a bumpy prediction the loss moves a
+// little from the all-points fit, and a subset at least the window's size changes nothing.
+TEST(Losses, LocalLossFitOnAPointSubsetKeepsExactAlignments) {
+  const at::Tensor rays = pinhole_rays(2, 32, 32, 30.0);
+  const at::Tensor distance = plane_distance(rays);
+  const at::Tensor gt = distance.unsqueeze(-1) * rays;
+  const at::Tensor mask = at::ones({2, 32, 32}, at::kBool);
+  const at::Tensor global = at::full({2}, 0.5, kDouble);
+  LocalLossOptions all;
+  all.min_points = 8;
+  LocalLossOptions subset = all;
+  subset.fit_points = 16;
+  const at::Tensor shifted = 2.0 * gt + at::tensor({0.1, -0.2, 0.3}, kDouble);
+  EXPECT_LT(local_loss(shifted, gt, rays, mask, global, 4, subset, generator())
+                .abs()
+                .max()
+                .item<double>(),
+            1e-12);
+  const at::Tensor bumped = 2.0 * gt * (1.0 + 0.2 * at::sin(gt.select(-1, 0) * 9.0).unsqueeze(-1));
+  // Level 4: windows of 13x13 = 169 points (radius ceil(0.5 / 4 · 45.3)), fitted from 16.
+  const double exact =
+      local_loss(bumped, gt, rays, mask, global, 4, all, generator()).sum().item<double>();
+  const double sampled =
+      local_loss(bumped, gt, rays, mask, global, 4, subset, generator()).sum().item<double>();
+  EXPECT_NE(sampled, exact);
+  EXPECT_NEAR(sampled, exact, 0.3 * exact);
+  EXPECT_EQ(
+      sampled,
+      local_loss(bumped, gt, rays, mask, global, 4, subset, generator()).sum().item<double>());
+  LocalLossOptions whole = all;
+  whole.fit_points = 169;
+  EXPECT_EQ(local_loss(bumped, gt, rays, mask, global, 4, whole, generator()).sum().item<double>(),
+            exact);
 }
 
 TEST(Losses, DecoupledLossIgnoresRayErrorsNaiveDoesNot) {

@@ -205,6 +205,189 @@ TEST(BatchSource, A2PReplacesWideLabelsWithTheTeachersStitchedPrediction) {
   fs::remove_all(dir);
 }
 
+// Sources of two image sizes are two aspect buckets: one size per step, the same on every
+// rank, both drawn by weight; an evaluation batch can ask for a bucket.
+TEST(BatchSource, AspectBucketsGiveOneSizePerStepOnEveryRank) {
+  json config = tiny_config("x");
+  config["data"]["datasets"] = {
+      {{"weight", 1},
+       {"synth", {{"scenes", {"indoor"}}, {"cameras", {"PINHOLE 28 21 20 20 14 10.5"}}}}},
+      {{"weight", 1},
+       {"image_size", {28, 14}},
+       {"synth", {{"scenes", {"outdoor"}}, {"cameras", {"EQUIRECTANGULAR 28 14"}}}}}};
+  config["data"]["image_size"] = {28, 21};
+  const BatchSource source(TrainConfig::from_json(config));
+  EXPECT_EQ(source.bucket_count(), 2);
+  int wide = 0, steps = 0;
+  for (int64_t step = 0; step < 24; ++step, ++steps) {
+    const TrainingBatch rank0 = source.batch(step, false, 0, 2),
+                        rank1 = source.batch(step, false, 1, 2);
+    EXPECT_EQ(rank0.image.sizes(), rank1.image.sizes()) << "step " << step;
+    const int64_t width = rank0.image.size(3), height = rank0.image.size(2);
+    ASSERT_TRUE((width == 28 && height == 21) || (width == 28 && height == 14))
+        << width << "x" << height;
+    if (height == 14) {
+      ++wide;
+      // The 2:1 bucket holds the panorama source alone: its rays cover the whole sphere.
+      EXPECT_LT(rank0.targets.rays.select(-1, 2).min().item<double>(), -0.9);
+    }
+  }
+  EXPECT_GT(wide, 4);
+  EXPECT_LT(wide, steps - 4);
+  EXPECT_EQ(source.batch(0, false, 0, 1, 1, 0).image.size(2), 21);
+  EXPECT_EQ(source.batch(0, false, 0, 1, 1, 1).image.size(2), 14);
+  EXPECT_EQ(source.batch(0, false, 0, 1, 1, 3).image.size(2), 14);  // modulo the bucket count
+}
+
+TEST(TrainConfig, ScheduleFactorsAndNewKeys) {
+  json config = tiny_config("x");
+  config["stages"][1] = {{"stage", 2},
+                         {"steps", 11},
+                         {"lr_backbone", 1e-3},
+                         {"lr_heads", 1e-3},
+                         {"schedule", "flat_cosine"},
+                         {"flat_fraction", 0.5},
+                         {"final_factor", 0.1},
+                         {"warmup_steps", 1}};
+  const StageConfig stage = TrainConfig::from_json(config).stages[1];
+  EXPECT_DOUBLE_EQ(stage.lr_factor(0), 0.5);  // warm-up: (0 + 1) / (1 + 1)
+  EXPECT_DOUBLE_EQ(stage.lr_factor(1), 1.0);
+  EXPECT_DOUBLE_EQ(stage.lr_factor(5), 1.0);  // flat to step 5.5
+  // Half a cosine from 5.5 to the last step, 10: 1 at its start, (1 + 0.1) / 2 half way.
+  EXPECT_NEAR(stage.lr_factor(10), 0.1, 1e-12);
+  EXPECT_NEAR(stage.lr_factor(8), 0.1 + 0.9 * 0.5 * (1 + std::cos(M_PI * 2.5 / 4.5)), 1e-12);
+  EXPECT_GT(stage.lr_factor(7), stage.lr_factor(8));
+  const StageConfig step = TrainConfig::from_json(tiny_config("x")).stages[0];
+  EXPECT_DOUBLE_EQ(step.lr_factor(0), 1.0);
+  EXPECT_DOUBLE_EQ(step.lr_factor(1), 0.5);  // decay_every 1, the paper's step schedule
+  for (const auto& [key, value] : std::vector<std::pair<std::string, json>>{{"schedule", "linear"},
+                                                                            {"flat_fraction", 1.5},
+                                                                            {"final_factor", -0.1},
+                                                                            {"warmup_steps", 11}}) {
+    json bad = config;
+    bad["stages"][1][key] = value;
+    try {
+      TrainConfig::from_json(bad);
+      FAIL() << key << " " << value.dump() << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+  json unlabelled = tiny_config("x");
+  unlabelled["data"]["datasets"][0]["labels"] = false;
+  try {
+    TrainConfig::from_json(unlabelled);
+    FAIL() << "an unlabelled source without A2P accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("augment.a2p"), std::string::npos) << e.what();
+  }
+  json sized = tiny_config("x");
+  sized["data"]["datasets"][0]["image_size"] = {28};
+  EXPECT_THROW(TrainConfig::from_json(sized), std::invalid_argument);
+}
+
+// A mirrored item is the mirror image of the same item: image, labels and rays (x negated).
+TEST(BatchSource, FlipMirrorsImageLabelsAndRays) {
+  json config = tiny_config("x");
+  const BatchSource plain(TrainConfig::from_json(config));
+  config["augment"] = {{"flip", true}};
+  const BatchSource flipping(TrainConfig::from_json(config));
+  int mirrored = 0, kept = 0;
+  for (int64_t step = 0; step < 6; ++step) {
+    const TrainingBatch a = plain.batch(step, true), b = flipping.batch(step, true);
+    for (int64_t k = 0; k < a.image.size(0); ++k) {
+      if (at::equal(a.image[k], b.image[k])) {
+        ++kept;
+        EXPECT_TRUE(at::equal(a.targets.rays[k], b.targets.rays[k]));
+        continue;
+      }
+      ++mirrored;
+      EXPECT_TRUE(at::equal(a.image[k].flip({2}), b.image[k]));
+      EXPECT_TRUE(at::equal(a.targets.distance[k].flip({1}), b.targets.distance[k]));
+      EXPECT_TRUE(at::equal(a.targets.mask[k].flip({1}), b.targets.mask[k]));
+      EXPECT_TRUE(at::equal(a.targets.mask_negative[k].flip({1}), b.targets.mask_negative[k]));
+      const at::Tensor rays = a.targets.rays[k].flip({1});
+      EXPECT_TRUE(at::equal(rays.select(-1, 0).neg(), b.targets.rays[k].select(-1, 0)));
+      EXPECT_TRUE(at::equal(rays.narrow(-1, 1, 2), b.targets.rays[k].narrow(-1, 1, 2)));
+      // The ray condition is the mirrored rays too, where it is on.
+      if (b.condition_rays[k].abs().sum().item<double>() > 0) {
+        EXPECT_TRUE(at::equal(b.condition_rays[k], b.targets.rays[k].permute({2, 0, 1})));
+      }
+    }
+  }
+  EXPECT_GT(mirrored, 0);
+  EXPECT_GT(kept, 0);
+}
+
+// Items of an unlabelled source never train stage 1 and are always A2P's from stage 2.
+TEST(BatchSource, UnlabelledSourcesEnterOnlyThroughA2P) {
+  const std::string dir = temp_dir("unlabelled");
+  const std::string teacher_path = dir + "/teacher.safetensors";
+  const model::OmniPointModel teacher = tiny_model(TrainConfig::from_json(tiny_config("x")));
+  io::write_safetensors(teacher_path, model::state_dict(*teacher),
+                        model::omnipoint_metadata(teacher->config()));
+  json config = tiny_config("x");
+  config["data"]["datasets"] = {
+      {{"weight", 1},
+       {"synth", {{"scenes", {"indoor"}}, {"cameras", {"PINHOLE 28 28 20 20 14 14"}}}}},
+      {{"weight", 3},
+       {"labels", false},
+       {"synth",
+        {{"scenes", {"indoor"}}, {"cameras", {"OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0"}}}}}};
+  config["augment"] = {{"a2p", true},
+                       {"a2p_probability", 0},
+                       {"a2p_teacher", teacher_path},
+                       {"a2p_teacher_tokens", 4}};
+  const BatchSource source(TrainConfig::from_json(config));
+  const at::Tensor pinhole_rays =
+      camera::parse_camera("PINHOLE 28 28 20 20 14 14").ray_map(at::kFloat).rays;
+  int wide = 0;
+  for (int64_t step = 0; step < 4; ++step) {
+    const TrainingBatch stage1 = source.batch(step, false), stage2 = source.batch(step, true);
+    for (int64_t k = 0; k < 2; ++k) {
+      EXPECT_TRUE(at::equal(stage1.targets.rays[k], pinhole_rays)) << "stage 1 saw a fisheye";
+      if (at::equal(stage2.targets.rays[k], pinhole_rays)) {
+        EXPECT_TRUE(stage2.targets.metric[k].item<bool>());  // labelled: exact, metric
+        continue;
+      }
+      ++wide;  // unlabelled: pseudo-labelled, not metric, no sky negatives
+      EXPECT_FALSE(stage2.targets.metric[k].item<bool>());
+      EXPECT_FALSE(stage2.targets.mask_negative[k].any().item<bool>());
+    }
+  }
+  EXPECT_GT(wide, 0);
+  fs::remove_all(dir);
+}
+
+// The evaluation scores the EMA weights, and leaves the live weights as they were.
+TEST(Trainer, EvaluatesTheEmaWeights) {
+  json json_config = tiny_config("x");
+  json_config["eval_batches"] = 2;
+  const TrainConfig config = TrainConfig::from_json(json_config);
+  Trainer trainer(config, tiny_model(config));
+  for (int i = 0; i < 3; ++i) trainer.train_step();
+  std::map<std::string, at::Tensor> live;
+  for (const auto& [name, t] : model::state_dict(*trainer.model())) live[name] = t.clone();
+  ASSERT_FALSE(at::equal(live.at("encoder.backbone.cls_token"),
+                         trainer.ema().at("encoder.backbone.cls_token")));
+  const std::map<std::string, double> scores = trainer.evaluate();
+  for (const auto& [name, t] : model::state_dict(*trainer.model()))
+    EXPECT_TRUE(at::equal(t, live.at(name))) << name << " not restored";
+
+  // At the same step, a trainer whose weights and EMA are the first one's EMA scores exactly
+  // the same; one whose weights and EMA are the first one's live weights does not.
+  const auto scores_of = [&](const std::map<std::string, at::Tensor>& weights) {
+    TrainState state = trainer.state();
+    for (const auto& [name, t] : weights) state.model[name] = state.ema[name] = t.clone();
+    Trainer other(config, tiny_model(config));
+    other.restore(state);
+    return other.evaluate();
+  };
+  EXPECT_EQ(scores_of(trainer.ema()), scores);
+  EXPECT_NE(scores_of(live).at("loss"), scores.at("loss"));
+  EXPECT_TRUE(std::isfinite(scores.at("loss")));
+}
+
 TEST(Trainer, StageTwoTrainsWithP2AAndA2P) {
   const std::string dir = temp_dir("p2a_a2p");
   const TrainConfig base = TrainConfig::from_json(tiny_config("x"));

@@ -4,9 +4,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 
+#include "omnipoint/data/dataset_index.h"
 #include "omnipoint/geometry/points.h"
 
 namespace omnipoint::eval {
@@ -96,6 +99,51 @@ Predictor constant_distance_predictor(double distance) {
     GeometryPrediction prediction;
     prediction.rays = item.sample.camera.ray_map(at::kFloat).rays;
     prediction.distance = at::full_like(item.sample.distance, value);
+    prediction.is_metric = true;
+    return prediction;
+  };
+  return predictor;
+}
+
+Predictor median_map_predictor(const std::vector<std::string>& datasets) {
+  // Per camera spec: the labelled distances of its samples, NaN where unlabelled.
+  std::map<std::string, std::vector<at::Tensor>> distances;
+  for (const std::string& root : datasets)
+    for (const data::DatasetItem& item : data::list_dataset(root)) {
+      const data::Sample sample = data::read_dataset_item(item, true);
+      distances[sample.camera.to_spec()].push_back(
+          at::where(sample.mask, sample.distance, at::full_like(sample.distance, NAN)));
+    }
+  auto maps = std::make_shared<std::map<std::string, at::Tensor>>();
+  for (const auto& [spec, stack] : distances) {
+    at::Tensor map = std::get<0>(at::stack(stack).nanmedian(0));
+    // A pixel no sample labels (the sky of every scene) gets the map's median, so that the
+    // prediction stays finite; the GT rarely labels it either.
+    const at::Tensor labelled = at::isfinite(map);
+    const double fill =
+        labelled.any().item<bool>() ? map.masked_select(labelled).median().item<double>() : 1.0;
+    (*maps)[spec] = at::where(labelled, map, at::full_like(map, fill)).contiguous();
+  }
+  Predictor predictor;
+  predictor.name = "median distance map (GT rays)";
+  predictor.accepts_intrinsics = true;
+  predictor.accepts_sparse_depth = true;
+  predictor.predict = [maps](const EvalSample& item, const Conditions& conditions) {
+    const auto found = maps->find(item.sample.camera.to_spec());
+    if (found == maps->end())
+      throw MissingPrediction("no sample of the baseline data has the camera " +
+                              item.sample.camera.to_spec());
+    at::Tensor map = found->second;
+    if (conditions.sparse_depth.defined()) {
+      const at::Tensor given = conditions.sparse_depth > 0;
+      if (given.any().item<bool>())
+        map = map * (conditions.sparse_depth.masked_select(given) / map.masked_select(given))
+                        .median()
+                        .item<double>();
+    }
+    GeometryPrediction prediction;
+    prediction.rays = item.sample.camera.ray_map(at::kFloat).rays;
+    prediction.distance = map;
     prediction.is_metric = true;
     return prediction;
   };

@@ -13,9 +13,15 @@
 //   constant:   the GT camera's rays with one constant distance for every pixel, metric:
 //               the score of knowing the camera but nothing about the scene; with sparse
 //               depth the constant is the median of the samples (a scale-only use of +D).
+//   median map: the GT camera's rays with, per pixel, the median of the distances a training
+//               set labels there through the same camera: the picture-blind map of what the
+//               camera and the typical scene give without looking at the image (floor below,
+//               far above), metric; with sparse depth it is rescaled by the median ratio of
+//               the samples to the map (a scale-only use of +D).
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "omnipoint/eval/runner.h"
 #include "omnipoint/infer/infer.h"
@@ -30,6 +36,10 @@ Predictor point_map_predictor(const std::string& name,
                               std::function<at::Tensor(const EvalSample&)> load);
 Predictor oracle_predictor();
 Predictor constant_distance_predictor(double distance);
+// The maps of every camera (by its COLMAP spec) of the datasets' samples (data/dataset_index.h;
+// read here). A sample whose camera none of them has gets MissingPrediction. Datasets without
+// samples -> std::runtime_error.
+Predictor median_map_predictor(const std::vector<std::string>& datasets);
 
 // Rays and distances of a point map (..., 3): directions and norms; points that are zero or
 // not finite get a zero ray and distance 0.

@@ -12,6 +12,7 @@
 #include "omnipoint/augment/virtual_camera.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/camera/camera_info.h"
+#include "omnipoint/data/photometric.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/data/synth/random.h"
 #include "omnipoint/data/synth/synthesize.h"
@@ -22,7 +23,8 @@
 namespace omnipoint::train {
 namespace {
 
-constexpr uint64_t kTokenStream = 0x746f6b656e73ULL;  // separates the per-step token draw
+constexpr uint64_t kTokenStream = 0x746f6b656e73ULL;   // separates the per-step token draw
+constexpr uint64_t kBucketStream = 0x6275636b6574ULL;  // and the per-step bucket draw
 
 // The largest centred window of the sample with the target aspect ratio, resized to it.
 data::Sample fit_to_size(const data::Sample& sample, int64_t width, int64_t height) {
@@ -76,16 +78,25 @@ uint64_t derived_seed(uint64_t seed, uint64_t stream, uint64_t index) {
 
 BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
   namespace fs = std::filesystem;
-  for (const DatasetSource& source : config_.datasets) {
-    total_weight_ += source.weight;
+  for (size_t i = 0; i < config_.datasets.size(); ++i) {
+    const DatasetSource& source = config_.datasets[i];
+    const auto same_size = [&](const Bucket& b) {
+      return b.width == source.width && b.height == source.height;
+    };
+    auto bucket = std::find_if(buckets_.begin(), buckets_.end(), same_size);
+    if (bucket == buckets_.end())
+      bucket = buckets_.insert(buckets_.end(), Bucket{source.width, source.height, {}});
+    bucket->sources.push_back(i);
     std::vector<std::string> folders;
     if (!source.synth) {
       std::error_code error;
       if (!fs::is_directory(source.folders, error))
         throw std::runtime_error("training data \"" + source.folders +
                                  "\": not a directory of sample folders");
+      // (A ".partial" folder is a sample still being written by `omnipoint synth`.)
       for (const fs::directory_entry& entry : fs::directory_iterator(source.folders))
-        if (entry.is_directory()) folders.push_back(entry.path().string());
+        if (entry.is_directory() && entry.path().extension() != ".partial")
+          folders.push_back(entry.path().string());
       if (folders.empty())
         throw std::runtime_error("training data \"" + source.folders +
                                  "\": holds no sample folders");
@@ -104,19 +115,61 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
   }
 }
 
+double BatchSource::source_weight(size_t source, bool conditions) const {
+  const DatasetSource& dataset = config_.datasets[source];
+  return dataset.labelled || (conditions && config_.a2p) ? dataset.weight : 0.0;
+}
+
+double BatchSource::bucket_weight(const Bucket& bucket, bool conditions) const {
+  double weight = 0;
+  for (const size_t source : bucket.sources) weight += source_weight(source, conditions);
+  return weight;
+}
+
 TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
-                                 uint64_t stream) const {
-  const int64_t batch_size = config_.batch_size, width = config_.width, height = config_.height;
+                                 uint64_t stream, int64_t bucket_index) const {
+  // The step's bucket: drawn by weight (one draw per step, the same on every rank), or given.
+  const Bucket* bucket = nullptr;
+  if (bucket_index >= 0) {
+    for (size_t i = 0; i < buckets_.size() && !bucket; ++i) {
+      const Bucket& candidate = buckets_[(static_cast<size_t>(bucket_index) + i) % buckets_.size()];
+      if (bucket_weight(candidate, conditions) > 0) bucket = &candidate;
+    }
+  } else if (buckets_.size() == 1) {
+    bucket = &buckets_.front();
+  } else {
+    double total = 0;
+    for (const Bucket& b : buckets_) total += bucket_weight(b, conditions);
+    data::synth::Random draw(
+        derived_seed(config_.seed, stream ^ kBucketStream, static_cast<uint64_t>(step)), 0);
+    double pick = draw.uniform() * total;
+    for (const Bucket& b : buckets_) {
+      const double weight = bucket_weight(b, conditions);
+      if (weight <= 0) continue;
+      bucket = &b;
+      if (pick < weight) break;
+      pick -= weight;
+    }
+  }
+  if (!bucket) throw std::logic_error("training data: no source can be used in this stage");
+  const double total_weight = bucket_weight(*bucket, conditions);
+
+  const int64_t batch_size = config_.batch_size, width = bucket->width, height = bucket->height;
   std::vector<at::Tensor> images, rays, distances, masks, negatives, metric, cond_rays, cond_depth;
   for (int64_t k = 0; k < batch_size; ++k) {
     const uint64_t index = static_cast<uint64_t>((step * world_size + rank) * batch_size + k);
     data::synth::Random random(derived_seed(config_.seed, stream, index), 0);
 
-    // The data source, by weight.
-    double pick = random.uniform() * total_weight_;
+    // The data source, by weight, among the bucket's usable ones.
+    double pick = random.uniform() * total_weight;
     size_t source = 0;
-    while (source + 1 < config_.datasets.size() && pick >= config_.datasets[source].weight)
-      pick -= config_.datasets[source++].weight;
+    for (const size_t candidate : bucket->sources) {
+      const double weight = source_weight(candidate, conditions);
+      if (weight <= 0) continue;
+      source = candidate;  // the last usable one, should rounding leave pick >= the total
+      if (pick < weight) break;
+      pick -= weight;
+    }
     const DatasetSource& dataset = config_.datasets[source];
 
     const data::Sample loaded = [&] {
@@ -145,10 +198,23 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
       sample = perspective_to_any(loaded, random.next_u64());
       ray_map = sample.camera.ray_map(at::kFloat);
       sky_known = false;
-    } else if (conditions && config_.a2p && lens != camera::CameraClass::kPerspective &&
-               random.chance(config_.a2p_probability)) {
+    } else if (conditions && config_.a2p &&
+               (!dataset.labelled || (lens != camera::CameraClass::kPerspective &&
+                                      random.chance(config_.a2p_probability)))) {
       sample = any_to_perspective(loaded, ray_map.valid, teacher_, random.next_u64());
       sky_known = false;
+    }
+    if (config_.photometric)
+      sample.image =
+          data::photometric_augment(sample.image, data::PhotometricOptions{}, random.next_u64());
+    if (config_.flip && random.chance(0.5)) {
+      // The mirror image of the scene through the mirrored camera: columns reversed, and the
+      // rays' x negated, so that points = distance · ray stay the mirror image's geometry.
+      sample.image = sample.image.flip({1}).contiguous();
+      sample.distance = sample.distance.flip({1}).contiguous();
+      sample.mask = sample.mask.flip({1}).contiguous();
+      ray_map.rays = (ray_map.rays.flip({1}) * at::tensor({-1.0F, 1.0F, 1.0F})).contiguous();
+      ray_map.valid = ray_map.valid.flip({1}).contiguous();
     }
     const at::Tensor camera_valid = ray_map.valid;
     images.push_back(sample.image.permute({2, 0, 1}));

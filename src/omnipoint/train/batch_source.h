@@ -6,6 +6,14 @@
 // a resumed run sees exactly the batches the uninterrupted one would have seen, and ranks
 // read disjoint shards of the same global batch.
 //
+// Aspect-ratio buckets: the sources of one image size form a bucket. Each step draws one
+// bucket (the same on every rank), with the summed weight of its sources, and its items come
+// from those sources by weight, at that size (folder samples centre-cropped to the aspect and
+// resized; synthetic cameras resized). So panoramas train at 2:1 while pinholes train at 4:3.
+// Unlabelled sources ("labels": false) take part only where A2P pseudo-labels them (stage 2
+// on, augment.a2p); A2P never replaces an exact label except with a2p_probability (the
+// paper's preset) on labelled wide items.
+//
 // Bidirectional augmentation (paper §3.4), from stage 2 on, when the config enables it:
 // - P2A: a perspective item (camera::CameraClass) is, with p2a_probability, rendered into a
 //   random virtual fisheye or panorama (augment::sample_virtual_view, resized to the training
@@ -18,6 +26,8 @@
 //   unlabelled image has no other depth.
 // Both leave unlabelled pixels unknown: they are not mask-head negatives (sky), unlike the
 // camera-valid unlabelled pixels of a labelled sample.
+// Then, in every stage when enabled: photometric augmentation of the image, and a mirror
+// image (image, labels and the rays' x mirrored together) for half of the items.
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
@@ -45,15 +55,27 @@ class BatchSource {
   explicit BatchSource(const TrainConfig& config);
 
   // `conditions`: whether the conditions may be on (stages 2 and 3). `stream` separates
-  // independent sequences of the same seed (0 training, 1 evaluation).
+  // independent sequences of the same seed (0 training, 1 evaluation). `bucket` >= 0 takes
+  // the bucket of that index (modulo their number; the next one with usable sources) instead
+  // of drawing one, so that an evaluation covers every bucket.
   TrainingBatch batch(int64_t step, bool conditions, int64_t rank = 0, int64_t world_size = 1,
-                      uint64_t stream = 0) const;
+                      uint64_t stream = 0, int64_t bucket = -1) const;
+
+  int64_t bucket_count() const { return static_cast<int64_t>(buckets_.size()); }
 
  private:
+  struct Bucket {
+    int64_t width = 0, height = 0;
+    std::vector<size_t> sources;  // indices into config_.datasets
+  };
+  // A source's weight in this step: 0 for an unlabelled one unless A2P can label it.
+  double source_weight(size_t source, bool conditions) const;
+  double bucket_weight(const Bucket& bucket, bool conditions) const;
+
   TrainConfig config_;
   std::vector<std::vector<std::string>> folders_;  // per dataset source: its sample folders
-  double total_weight_ = 0;
-  augment::Teacher teacher_;  // A2P's, when enabled
+  std::vector<Bucket> buckets_;                    // in the order the sizes first appear
+  augment::Teacher teacher_;                       // A2P's, when enabled
 };
 
 // A seed for a CPU generator derived from (seed, stream, index) by SplitMix64 mixing.

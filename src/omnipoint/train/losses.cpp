@@ -2,6 +2,7 @@
 
 #include <ATen/ATen.h>
 
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -212,10 +213,25 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
   at::Tensor scale, shift;
   {
     at::NoGradGuard no_grad;
-    const at::Tensor weight = at::ones({num_patches, gt_patch.size(1)}, float_options) /
+    at::Tensor fit_pred = pred_patch.detach(), fit_gt = gt_patch,
+               fit_mask = patch_mask & enough.unsqueeze(1);
+    if (options.fit_points > 0 && fit_mask.size(1) > options.fit_points) {
+      // A uniform subset of each patch's usable points: the fit_points smallest of random keys,
+      // the unusable points keyed above every usable one.
+      const at::Tensor keys =
+          at::rand({num_patches, fit_mask.size(1)}, generator, at::kFloat).to(fit_mask.device());
+      const at::Tensor chosen = std::get<1>(keys.masked_fill(fit_mask.logical_not(), 2.0)
+                                                .topk(options.fit_points, 1, /*largest=*/false,
+                                                      /*sorted=*/false));
+      const at::Tensor chosen3 = chosen.unsqueeze(-1).expand({-1, -1, 3});
+      fit_pred = fit_pred.gather(1, chosen3);
+      fit_gt = fit_gt.gather(1, chosen3);
+      fit_mask = fit_mask.gather(1, chosen);
+    }
+    const at::Tensor weight = at::ones({num_patches, fit_gt.size(1)}, float_options) /
                               radius_3d.clamp_min(1e-12).unsqueeze(1);
-    const geometry::AffineFit fit = geometry::fit_points_affine_l1(
-        pred_patch.detach(), gt_patch, weight, patch_mask & enough.unsqueeze(1));
+    const geometry::AffineFit fit =
+        geometry::fit_points_affine_l1(fit_pred, fit_gt, weight, fit_mask);
     const at::Tensor global = global_scale.index_select(0, item);
     const at::Tensor ratio = fit.scale / global;
     const at::Tensor valid = enough & positive_finite(fit.scale) & positive_finite(global) &
@@ -272,13 +288,44 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
       kind == PointLoss::kDecoupled ? output.distance.unsqueeze(-1) * gt_rays : own_points;
 
   Losses losses;
-  losses.scale = kind == PointLoss::kDisjoint
-                     ? alignment_scale(output.distance, gt_distance, mask, config.align_trunc)
-                     : alignment_scale(points, gt_points, mask, config.align_trunc);
+  auto clock = std::chrono::steady_clock::now();
+  const auto lap = [&] {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - clock).count();
+    clock = now;
+    return seconds;
+  };
+  if (config.align_points > 0 && mask[0].numel() > config.align_points) {
+    // s* from a uniform subset of each item's labelled pixels, laid out as (B, 1, N) maps.
+    at::NoGradGuard no_grad;
+    const int64_t batch = mask.size(0);
+    const at::Tensor flat_mask = mask.reshape({batch, -1});
+    const at::Tensor keys = at::rand(flat_mask.sizes(), generator, at::kFloat).to(mask.device());
+    const at::Tensor chosen = std::get<1>(keys.masked_fill(flat_mask.logical_not(), 2.0)
+                                              .topk(config.align_points, 1, /*largest=*/false,
+                                                    /*sorted=*/false));
+    const auto pick = [&](const at::Tensor& map) {
+      const at::Tensor rows = map.reshape({batch, flat_mask.size(1), -1});
+      return rows.gather(1, chosen.unsqueeze(-1).expand({-1, -1, rows.size(2)}))
+          .view({batch, 1, config.align_points, -1});
+    };
+    const at::Tensor subset_mask = flat_mask.gather(1, chosen).view({batch, 1, -1});
+    losses.scale =
+        kind == PointLoss::kDisjoint
+            ? alignment_scale(pick(output.distance).squeeze(-1), pick(gt_distance).squeeze(-1),
+                              subset_mask, config.align_trunc)
+            : alignment_scale(pick(points), pick(gt_points), subset_mask, config.align_trunc);
+  } else {
+    losses.scale = kind == PointLoss::kDisjoint
+                       ? alignment_scale(output.distance, gt_distance, mask, config.align_trunc)
+                       : alignment_scale(points, gt_points, mask, config.align_trunc);
+  }
+  losses.seconds["scale"] = lap();
   at::Tensor total = at::zeros({output.distance.size(0)}, options);
   const auto add = [&](const char* name, double weight, const at::Tensor& term) {
     losses.terms[name] = term;
     total = total + weight * term;
+    losses.seconds[name] = lap();
   };
   if (w.point != 0.0) {
     const at::Tensor weight = inverse_distance_weight(gt_points, mask);

@@ -59,12 +59,21 @@ struct LocalLossOptions {
   std::vector<int64_t> levels{4, 16, 64};
   int64_t patches_per_item = 16;
   int64_t min_points = 32;  // patches with fewer labelled points inside their 3-D ball are skipped
+  // 0 (MoGe's): each patch's scale and shift are the exact L1 fit over all its points. N > 0:
+  // the exact fit over a uniform random subset of at most N of them (the loss still sums over
+  // all): the fit's sorts dominated a CPU training step, and the fit is a constant for the
+  // gradient, so an estimate from N points only adds noise to the alignment.
+  int64_t fit_points = 0;
 };
 
 struct LossConfig {
   LossWeights weights;
   PointLoss point_loss = PointLoss::kDecoupled;
   double align_trunc = 1.0;  // truncation of the ROE scale fit (relative error)
+  // 0 (MoGe's): s* is fitted on every labelled pixel. N > 0: on a uniform random subset of at
+  // most N of each item's labelled pixels (like LocalLossOptions::fit_points; s* is a constant
+  // for the gradient, and MoGe's evaluation fits on a 64×64 subsample too).
+  int64_t align_points = 0;
   LocalLossOptions local;
 };
 
@@ -81,6 +90,7 @@ struct Losses {
   std::map<std::string, at::Tensor>
       terms;         // "point", "ray", ...: (B) unweighted, computed terms only
   at::Tensor scale;  // (B) s*, NaN where undetermined
+  std::map<std::string, double> seconds;  // the forward time of each term ("scale": s*)
 };
 
 // The whole objective for one batch. Terms whose weight is 0 are not computed. `generator`
@@ -126,7 +136,8 @@ at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_point
 // pixels, window radius ceil(0.5/level · diagonal) pixels, kept are the labelled pixels within
 // the 3-D radius (0.5/level · diagonal) · (the ray angle between neighbouring pixels at the
 // anchor) · ‖anchor‖ — MoGe's 0.5/level/focal · z for any camera model; each patch aligned by
-// the exact L1 scale + shift fit (constant for the gradient), rejected when that scale is not
+// the exact L1 scale + shift fit (constant for the gradient; over at most options.fit_points of
+// the patch's points when that is > 0, drawn with `generator`), rejected when that scale is not
 // within (0.1, 10)× `global_scale`, weighted by 1 / max(‖gt‖, 0.1 · the item's harmonic mean).
 // Returns the sum over the item's patches divided by patches_per_item.
 at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,

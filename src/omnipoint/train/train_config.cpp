@@ -1,5 +1,6 @@
 #include "omnipoint/train/train_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -101,6 +102,25 @@ void require(bool ok, const std::string& where, const std::string& what) {
 
 }  // namespace
 
+double StageConfig::lr_factor(int64_t in_stage) const {
+  double factor = 1.0;
+  if (schedule == Schedule::kStep) {
+    // One factor per whole decay_every steps (integer division on purpose).
+    const int64_t decays = decay_every > 0 ? in_stage / decay_every : 0;
+    factor = std::pow(decay_factor, static_cast<double>(decays));
+  } else {
+    const double flat_end = flat_fraction * static_cast<double>(steps);
+    const double decay_length = static_cast<double>(steps - 1) - flat_end;
+    if (static_cast<double>(in_stage) > flat_end && decay_length > 0) {
+      const double t = std::min(1.0, (static_cast<double>(in_stage) - flat_end) / decay_length);
+      factor = final_factor + (1.0 - final_factor) * 0.5 * (1.0 + std::cos(M_PI * t));
+    }
+  }
+  if (warmup_steps > 0 && in_stage < warmup_steps)
+    factor *= static_cast<double>(in_stage + 1) / static_cast<double>(warmup_steps + 1);
+  return factor;
+}
+
 int64_t TrainConfig::total_steps() const {
   int64_t total = 0;
   for (const StageConfig& stage : stages) total += stage.steps;
@@ -124,15 +144,21 @@ TrainConfig TrainConfig::from_text(const std::string& text, const std::string& s
 TrainConfig TrainConfig::from_json(const json& root) {
   if (!root.is_object()) fail("file", "expected a JSON object");
   check_keys(root,
-             {"output_dir", "seed", "threads", "model", "init", "data", "conditions", "augment",
-              "loss", "optimizer", "ema", "stages", "checkpoint_every", "log_every", "eval_every",
-              "eval_batches", "max_nonfinite_steps"},
+             {"output_dir", "seed", "threads", "precision", "model", "init", "data", "conditions",
+              "augment", "loss", "optimizer", "ema", "stages", "checkpoint_every", "log_every",
+              "eval_every", "eval_batches", "max_nonfinite_steps"},
              "config");
   TrainConfig c;
   c.output_dir = value_or<std::string>(root, "output_dir", c.output_dir, "config");
   c.seed = value_or<uint64_t>(root, "seed", c.seed, "config");
   c.threads = value_or<int>(root, "threads", c.threads, "config");
   require(c.threads >= 1, "threads", "must be at least 1");
+  try {
+    c.precision =
+        model::parse_precision(value_or<std::string>(root, "precision", "fp32", "config"));
+  } catch (const std::invalid_argument& e) {
+    fail("precision", e.what());
+  }
   if (root.contains("model")) c.model = object_at(root, "model", "config");
 
   const json& init = object_at(root, "init", "config");
@@ -169,10 +195,16 @@ TrainConfig TrainConfig::from_json(const json& root) {
   for (const json& entry : data.at("datasets")) {
     const std::string where = "data.datasets[" + std::to_string(c.datasets.size()) + "]";
     if (!entry.is_object()) fail(where, "expected a JSON object");
-    check_keys(entry, {"weight", "synth", "folders"}, where);
+    check_keys(entry, {"weight", "synth", "folders", "image_size", "labels"}, where);
     DatasetSource source;
     source.weight = value_or<double>(entry, "weight", 1.0, where);
     require(source.weight > 0, where + ".weight", "must be positive");
+    const auto bucket = pair_or<int64_t>(entry, "image_size", {c.width, c.height}, where);
+    source.width = bucket[0];
+    source.height = bucket[1];
+    require(source.width >= 2 && source.height >= 2, where + ".image_size",
+            "must be [width, height], at least 2 each");
+    source.labelled = value_or<bool>(entry, "labels", true, where);
     require(entry.contains("synth") != entry.contains("folders"), where,
             "needs exactly one of \"synth\" or \"folders\"");
     if (entry.contains("synth")) {
@@ -202,10 +234,10 @@ TrainConfig TrainConfig::from_json(const json& root) {
           "conditions.sparse_ratio", "must be [min, max] with 0 < min <= max <= 1");
 
   const json& augment = object_at(root, "augment", "config");
-  check_keys(
-      augment,
-      {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher", "a2p_teacher_tokens"},
-      "augment");
+  check_keys(augment,
+             {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher",
+              "a2p_teacher_tokens", "photometric", "flip"},
+             "augment");
   c.p2a = value_or<bool>(augment, "p2a", false, "augment");
   c.p2a_probability = value_or<double>(augment, "p2a_probability", c.p2a_probability, "augment");
   require(c.p2a_probability >= 0 && c.p2a_probability <= 1, "augment.p2a_probability",
@@ -220,12 +252,24 @@ TrainConfig TrainConfig::from_json(const json& root) {
           "A2P needs a teacher: the path of an OmniPoint checkpoint (e.g. the stage-1 model)");
   require(c.a2p_teacher_tokens >= 0, "augment.a2p_teacher_tokens",
           "must be >= 0 (0: the largest of num_tokens)");
+  c.photometric = value_or<bool>(augment, "photometric", false, "augment");
+  c.flip = value_or<bool>(augment, "flip", false, "augment");
+  bool any_labelled = false;
+  for (size_t i = 0; i < c.datasets.size(); ++i) {
+    any_labelled = any_labelled || c.datasets[i].labelled;
+    require(c.datasets[i].labelled || c.a2p, "data.datasets[" + std::to_string(i) + "].labels",
+            "an unlabelled source needs augment.a2p (A2P pseudo-labels its items)");
+  }
+  require(any_labelled, "data.datasets", "needs at least one labelled source");
 
   const json& loss = object_at(root, "loss", "config");
-  check_keys(loss, {"point_loss", "align_trunc", "weights", "local"}, "loss");
+  check_keys(loss, {"point_loss", "align_trunc", "align_points", "weights", "local"}, "loss");
   c.loss.point_loss =
       parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
   c.loss.align_trunc = value_or<double>(loss, "align_trunc", c.loss.align_trunc, "loss");
+  c.loss.align_points = value_or<int64_t>(loss, "align_points", c.loss.align_points, "loss");
+  require(c.loss.align_points == 0 || c.loss.align_points >= 16, "loss.align_points",
+          "must be 0 (every labelled pixel) or at least 16");
   const json& weights = object_at(loss, "weights", "loss");
   check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask", "gauge"},
              "loss.weights");
@@ -238,13 +282,17 @@ TrainConfig TrainConfig::from_json(const json& root) {
   w.mask = value_or<double>(weights, "mask", w.mask, "loss.weights");
   w.gauge = value_or<double>(weights, "gauge", w.gauge, "loss.weights");
   const json& local = object_at(loss, "local", "loss");
-  check_keys(local, {"levels", "patches_per_item", "min_points"}, "loss.local");
+  check_keys(local, {"levels", "patches_per_item", "min_points", "fit_points"}, "loss.local");
   c.loss.local.levels =
       value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");
   c.loss.local.patches_per_item =
       value_or<int64_t>(local, "patches_per_item", c.loss.local.patches_per_item, "loss.local");
   c.loss.local.min_points =
       value_or<int64_t>(local, "min_points", c.loss.local.min_points, "loss.local");
+  c.loss.local.fit_points =
+      value_or<int64_t>(local, "fit_points", c.loss.local.fit_points, "loss.local");
+  require(c.loss.local.fit_points == 0 || c.loss.local.fit_points >= 3, "loss.local.fit_points",
+          "must be 0 (all points) or at least 3");
   for (const int64_t level : c.loss.local.levels)
     require(level > 0, "loss.local.levels", "must be positive");
   require(c.loss.local.patches_per_item >= 1, "loss.local.patches_per_item", "must be at least 1");
@@ -266,7 +314,9 @@ TrainConfig TrainConfig::from_json(const json& root) {
   for (const json& entry : root.at("stages")) {
     const std::string where = "stages[" + std::to_string(c.stages.size()) + "]";
     if (!entry.is_object()) fail(where, "expected a JSON object");
-    check_keys(entry, {"stage", "steps", "lr_backbone", "lr_heads", "decay_every", "decay_factor"},
+    check_keys(entry,
+               {"stage", "steps", "lr_backbone", "lr_heads", "schedule", "decay_every",
+                "decay_factor", "flat_fraction", "final_factor", "warmup_steps"},
                where);
     StageConfig stage;
     stage.stage = value_or<int>(entry, "stage", stage.stage, where);
@@ -275,10 +325,23 @@ TrainConfig TrainConfig::from_json(const json& root) {
     require(stage.steps >= 1, where + ".steps", "must be at least 1");
     stage.lr_backbone = value_or<double>(entry, "lr_backbone", stage.lr_backbone, where);
     stage.lr_heads = value_or<double>(entry, "lr_heads", stage.lr_heads, where);
+    const auto schedule = value_or<std::string>(entry, "schedule", "step", where);
+    require(schedule == "step" || schedule == "flat_cosine", where + ".schedule",
+            "expected step or flat_cosine, got \"" + schedule + "\"");
+    stage.schedule = schedule == "step" ? Schedule::kStep : Schedule::kFlatCosine;
     stage.decay_every = value_or<int64_t>(entry, "decay_every", stage.decay_every, where);
     stage.decay_factor = value_or<double>(entry, "decay_factor", stage.decay_factor, where);
+    stage.flat_fraction = value_or<double>(entry, "flat_fraction", stage.flat_fraction, where);
+    stage.final_factor = value_or<double>(entry, "final_factor", stage.final_factor, where);
+    stage.warmup_steps = value_or<int64_t>(entry, "warmup_steps", stage.warmup_steps, where);
     require(stage.lr_backbone >= 0 && stage.lr_heads >= 0, where, "learning rates must be >= 0");
     require(stage.decay_every >= 0, where + ".decay_every", "must be >= 0");
+    require(stage.flat_fraction >= 0 && stage.flat_fraction <= 1, where + ".flat_fraction",
+            "must lie in [0, 1]");
+    require(stage.final_factor >= 0 && stage.final_factor <= 1, where + ".final_factor",
+            "must lie in [0, 1]");
+    require(stage.warmup_steps >= 0 && stage.warmup_steps < stage.steps, where + ".warmup_steps",
+            "must lie in [0, steps)");
     c.stages.push_back(stage);
   }
   c.checkpoint_every = value_or<int64_t>(root, "checkpoint_every", c.checkpoint_every, "config");

@@ -3,6 +3,7 @@
 // {
 //   "output_dir": "runs/small",            checkpoints, log.jsonl
 //   "seed": 0, "threads": 1,                threads 1 + a seed = deterministic, resumable bit-exactly
+//   "precision": "fp32",                    "bf16": the forward under autocast (model/precision.h)
 //   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2"); with init
 //                                           "omnipoint" only "conditioning" (ablations) and
 //                                           "num_tokens_range" (the default token budget)
@@ -10,18 +11,27 @@
 //            "output": "ray_distance" | "xyz"  (moge2 only)},
 //   "data": {"batch_size": 8, "image_size": [W, H], "num_tokens": [min, max],
 //            "datasets": [{"weight": 1, "synth": {"scenes": ["indoor", ...], "cameras": [SPEC, ...]}},
-//                         {"weight": 1, "folders": DIR}]},     DIR holds sample folders (data/sample.h)
+//                         {"weight": 1, "folders": DIR,     DIR holds sample folders (data/sample.h)
+//                          "image_size": [W, H],            this source's bucket (default: data's)
+//                          "labels": true}]},               false: unlabelled, enters only by A2P
 //   "conditions": {"probability": 0.9, "sparse_ratio": [0.0005, 0.001]},   from stage 2 on
 //   "augment": {"p2a": false, "p2a_probability": 0.02,     from stage 2 on, see batch_source.h
-//               "a2p": false, "a2p_probability": 1, "a2p_teacher": FILE, "a2p_teacher_tokens": 0},
+//               "a2p": false, "a2p_probability": 1, "a2p_teacher": FILE, "a2p_teacher_tokens": 0,
+//               "photometric": false, "flip": false},     every stage: colour jitter, blur, noise,
+//                                                         JPEG (data/photometric.h); mirror images
 //   "loss": {"point_loss": "decoupled" | "naive" | "disjoint", "align_trunc": 1,
+//            "align_points": 0,         0: s* on every labelled pixel; see losses.h
 //            "weights": {"point": 1, "ray": 1, "metric": 1, "normal": 1, "local": 1, "mask": 1,
 //                        "gauge": 0},     gauge: not the paper's, see losses.h
-//            "local": {"levels": [4, 16, 64], "patches_per_item": 16, "min_points": 32}},
+//            "local": {"levels": [4, 16, 64], "patches_per_item": 16, "min_points": 32,
+//                      "fit_points": 0}},      0: MoGe's exact fit on all points; see losses.h
 //   "optimizer": {"weight_decay": 0.01, "betas": [0.9, 0.999], "eps": 1e-8, "grad_clip": 1.0},
 //   "ema": {"decay": 0.999},
 //   "stages": [{"stage": 1, "steps": 10000, "lr_backbone": 1e-4, "lr_heads": 1e-5,
-//               "decay_every": 2000, "decay_factor": 0.5}, {"stage": 2, ...}, {"stage": 3, ...}],
+//               "schedule": "step", "decay_every": 2000, "decay_factor": 0.5,   the paper's
+//               "warmup_steps": 0},
+//              {"stage": 2, ..., "schedule": "flat_cosine", "flat_fraction": 0.7,
+//               "final_factor": 0.01}, {"stage": 3, ...}],
 //   "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4,
 //   "max_nonfinite_steps": 10
 // }
@@ -36,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "omnipoint/model/precision.h"
 #include "omnipoint/train/losses.h"
 
 namespace omnipoint::train {
@@ -49,22 +60,39 @@ struct DatasetSource {
   double weight = 1.0;
   bool synth = false;
   SynthSource synth_source;
-  std::string folders;  // a directory of sample folders
+  std::string folders;            // a directory of sample folders
+  int64_t width = 0, height = 0;  // the image size of its items: its aspect-ratio bucket
+  bool labelled = true;           // false: its items are pseudo-labelled by A2P (stage 2 on)
 };
+
+// The learning rate of a stage, as a factor of its lr_backbone / lr_heads:
+//   kStep (the paper's): decay_factor^floor(step / decay_every) (decay_every 0: constant);
+//   kFlatCosine: constant for flat_fraction of the stage, then half a cosine down to
+//                final_factor at its last step.
+// Either after a linear warm-up from 0 over warmup_steps.
+enum class Schedule { kStep, kFlatCosine };
 
 struct StageConfig {
   int stage = 1;  // 1, 2 or 3
   int64_t steps = 0;
   double lr_backbone = 1e-4;
   double lr_heads = 1e-5;
+  Schedule schedule = Schedule::kStep;
   int64_t decay_every = 0;  // 0: constant
   double decay_factor = 0.5;
+  double flat_fraction = 0.7;
+  double final_factor = 0.01;
+  int64_t warmup_steps = 0;
+
+  // The factor at step `in_stage` (0-based) of this stage.
+  double lr_factor(int64_t in_stage) const;
 };
 
 struct TrainConfig {
   std::string output_dir = "train_output";
   uint64_t seed = 0;
   int threads = 1;
+  model::Precision precision = model::Precision::kFloat32;
 
   nlohmann::json model;  // OmniPointConfig JSON
   std::string init_from = "scratch";
@@ -83,6 +111,8 @@ struct TrainConfig {
   double a2p_probability = 1.0;    // share of wide-FoV items whose labels are replaced by A2P's
   std::string a2p_teacher;         // checkpoint (OmniPoint or MoGe-2) pseudo-labelling A2P views
   int64_t a2p_teacher_tokens = 0;  // the teacher's token budget; 0: num_tokens' maximum
+  bool photometric = false;        // data::photometric_augment on every item
+  bool flip = false;               // mirror half of the items (image, labels and rays)
 
   LossConfig loss;
   double weight_decay = 0.01;

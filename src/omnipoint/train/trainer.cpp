@@ -5,6 +5,7 @@
 #include <torch/nn/utils/clip_grad.h>
 #include <torch/optim/adamw.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -13,6 +14,7 @@
 #include "omnipoint/eval/metrics.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/omnipoint_weights.h"
+#include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
 #include "omnipoint/train/distributed.h"
 
@@ -164,6 +166,7 @@ model::OmniPointOutput Trainer::forward(const TrainingBatch& batch, bool conditi
   const model::ConditioningConfig& conditioning = model_->config().conditioning;
   if (conditions && conditioning.intrinsics) inputs.rays = batch.condition_rays;
   if (conditions && conditioning.sparse_depth) inputs.sparse_depth = batch.condition_sparse_depth;
+  const model::AutocastScope autocast(config_.precision, batch.image.device().type());
   return model_->forward(inputs, batch.num_tokens);
 }
 
@@ -172,10 +175,7 @@ StepRecord Trainer::train_step() {
   const int index = stage_index(step_);
   if (index != current_stage_) configure_stage(index);
   const StageConfig& stage = config_.stages[index];
-  const int64_t in_stage = step_ - stage_start(index);
-  // Step decay: one factor per whole decay_every steps (integer division on purpose).
-  const int64_t decays = stage.decay_every > 0 ? in_stage / stage.decay_every : 0;
-  const double decay = std::pow(stage.decay_factor, static_cast<double>(decays));
+  const double decay = stage.lr_factor(step_ - stage_start(index));
   StepRecord record;
   record.stage = stage.stage;
   record.lr_backbone = stage.lr_backbone * decay;
@@ -184,15 +184,27 @@ StepRecord Trainer::train_step() {
     static_cast<torch::optim::AdamWOptions&>(optimizer_->param_groups()[g].options())
         .lr(group_kinds_[g] == "backbone" ? record.lr_backbone : record.lr_heads);
 
+  auto clock = std::chrono::steady_clock::now();
+  const auto lap = [&](const char* phase) {
+    const auto now = std::chrono::steady_clock::now();
+    record.seconds[phase] = std::chrono::duration<double>(now - clock).count();
+    clock = now;
+  };
   const bool conditions = stage.stage >= 2;
   const TrainingBatch batch = source_.batch(step_, conditions, rank_, world_size_);
   record.images = batch.image.size(0) * world_size_;
   record.num_tokens = batch.num_tokens;
+  record.width = batch.image.size(3);
+  record.height = batch.image.size(2);
+  lap("data");
   model_->train();
   const model::OmniPointOutput output = forward(batch, conditions);
+  lap("forward");
   at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(
       derived_seed(config_.seed, kLossStream, static_cast<uint64_t>(step_ * world_size_ + rank_)));
   const Losses losses = compute_losses(output, batch.targets, stage_loss(index), generator);
+  lap("loss");
+  for (const auto& [term, seconds] : losses.seconds) record.seconds["loss." + term] = seconds;
   record.loss = losses.total.item<double>();
   for (const auto& [name, term] : losses.terms) record.terms[name] = term.mean().item<double>();
   // Means over the ranks: one rank's non-finite loss makes every rank skip the step.
@@ -214,6 +226,7 @@ StepRecord Trainer::train_step() {
     record.grad_norm = torch::nn::utils::clip_grad_norm_(parameters, max_norm);
     finite = std::isfinite(record.grad_norm);
   }
+  lap("backward");
   if (finite) {
     optimizer_->step();
     at::NoGradGuard no_grad;
@@ -234,17 +247,36 @@ StepRecord Trainer::train_step() {
           std::to_string(consecutive_nonfinite_) +
           " steps in a row had a non-finite loss or gradients (max_nonfinite_steps)");
   }
+  lap("optimizer");
   record.step = ++step_;
   return record;
 }
 
 std::map<std::string, double> Trainer::evaluate() {
   at::NoGradGuard no_grad;
+  // The EMA weights are what a run saves and ships, so they are what is scored: swapped in
+  // for the evaluation and the live weights back afterwards (also when it throws).
+  struct EmaWeights {
+    std::map<std::string, at::Tensor> live, weights;
+    EmaWeights(model::OmniPointModel& network, const std::map<std::string, at::Tensor>& ema)
+        : weights(model::state_dict(*network)) {
+      for (auto& [name, tensor] : weights) {
+        live[name] = tensor.clone();
+        tensor.copy_(ema.at(name));
+      }
+    }
+    ~EmaWeights() {
+      for (auto& [name, tensor] : weights) tensor.copy_(live.at(name));
+    }
+    EmaWeights(const EmaWeights&) = delete;
+    EmaWeights& operator=(const EmaWeights&) = delete;
+  } ema_weights(model_, ema_);
   const int index = stage_index(std::max<int64_t>(step_ - 1, 0));
   const bool conditions = config_.stages[index].stage >= 2;
   std::map<std::string, double> sums, counts;
   for (int64_t b = 0; b < config_.eval_batches; ++b) {
-    const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream);
+    // Batch b from bucket b (modulo their number), so that every aspect ratio is scored.
+    const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream, b);
     const model::OmniPointOutput output = forward(batch, conditions);
     at::Generator generator =
         at::make_generator<at::CPUGeneratorImpl>(derived_seed(config_.seed, kEvalStream, b));

@@ -40,6 +40,10 @@ struct StepRecord {
   double lr_backbone = 0, lr_heads = 0;
   int64_t images = 0;
   int64_t num_tokens = 0;
+  int64_t width = 0, height = 0;  // the step's image size (its aspect bucket)
+  // Wall seconds of the step's phases: "data", "forward", "loss" (and "loss.<term>"),
+  // "backward" (with the gradient all-reduce), "optimizer" (with the EMA).
+  std::map<std::string, double> seconds;
 };
 
 // Everything an exact resume needs. Tensors are CPU copies.
@@ -77,8 +81,9 @@ class Trainer {
   // in a row.
   StepRecord train_step();
 
-  // Mean losses over config.eval_batches fixed batches (a separate data stream), no update,
-  // plus the benchmark's scores on them: points_rel/points_delta1 (scale-invariant points) and
+  // The EMA weights' mean losses over config.eval_batches fixed batches (a separate data
+  // stream; batch b from aspect bucket b modulo their number), no update, plus the
+  // benchmark's scores on them: points_rel/points_delta1 (scale-invariant points) and
   // metric_rel/metric_delta1 (metric points, metric items only), as fractions.
   std::map<std::string, double> evaluate();
 

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cstdio>
 #include <stdexcept>
+#include <string>
 
 namespace omnipoint::data::synth {
 
@@ -51,10 +51,15 @@ BenchmarkPlan plan_benchmark(const std::string& json_text, const std::string& wh
         fail("split name \"" + name + "\": expected a folder name");
       if (count < 1 || cameras.empty() || scenes.empty())
         fail("split " + name + ": expected count >= 1 and non-empty \"cameras\" and \"scenes\"");
+      if (count > static_cast<int64_t>(kSplitSeedStride))
+        fail("split " + name + ": at most " + std::to_string(kSplitSeedStride) +
+             " samples (the seed stride between splits)");
+      // Folder names of one width per split, so that they sort in sample order.
+      const size_t digits = std::max<size_t>(4, std::to_string(count - 1).size());
       const int64_t n = per_split_limit > 0 ? std::min(count, per_split_limit) : count;
       for (int64_t i = 0; i < n; ++i) {
-        char folder[64];
-        std::snprintf(folder, sizeof folder, "/%04lld", static_cast<long long>(i));
+        const std::string index = std::to_string(i);  // never longer than digits
+        const std::string folder = "/" + std::string(digits - index.size(), '0') + index;
         const auto c = static_cast<size_t>(i) % cameras.size();
         const auto s = (static_cast<size_t>(i) / cameras.size()) % scenes.size();
         plan.samples.push_back({name + folder, name, cameras[c], scenes[s],

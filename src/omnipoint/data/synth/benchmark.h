@@ -1,7 +1,9 @@
 #pragma once
-// A versioned synthetic benchmark definition (benchmarks/*.json, docs/EVALUATION.md): per
-// split a sample count, camera specs and scene kinds; per named set ("main", "final") a base
-// seed. Sample i of split k (k in file order) is rendered with
+// A versioned synthetic set definition (benchmarks/*.json): an evaluation benchmark
+// (synthetic_v1.json, docs/EVALUATION.md) or a pre-rendered training pool (training_pool_v1.json,
+// docs/TRAINING.md). Per split a sample count (at most 100,000), camera specs and scene kinds;
+// per named set ("main", "final", "train") a base seed. Sample i of split k (k in file order) is
+// rendered with
 //   camera = cameras[i mod C],  scene = scenes[(i div C) mod S],  seed = set seed + 100000·k + i
 // so every camera sees every scene kind and the two sets share no scene. Everything is fixed
 // by the file: the same definition and set give byte-identical samples (synthesize.h).
@@ -16,7 +18,7 @@
 namespace omnipoint::data::synth {
 
 struct BenchmarkSample {
-  std::string folder;  // "<split>/<index, 4 digits>"
+  std::string folder;  // "<split>/<index, zero-padded to 4 digits or those of count - 1>"
   std::string split;
   camera::Camera camera;
   SceneKind scene;

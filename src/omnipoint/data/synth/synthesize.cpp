@@ -39,8 +39,9 @@ std::string scene_meta_json(const Scene& scene) {
   return meta.dump();
 }
 
-void write_synth_sample(const std::string& folder, const SynthSample& s) {
+void write_synth_sample(const std::string& folder, const SynthSample& s, SynthFiles files) {
   write_sample(folder, s.sample, scene_meta_json(s.scene));
+  if (files == SynthFiles::kCore) return;
   const std::filesystem::path dir(folder);
   io::write_npy((dir / "depth.npy").string(), s.depth);
   io::write_npy((dir / "rays.npy").string(), s.rays);

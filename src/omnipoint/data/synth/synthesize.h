@@ -35,7 +35,12 @@ SynthSample synthesize(SceneKind kind, std::uint64_t seed, const camera::Camera&
 // meta.json fields describing the scene: {"scene", "seed", "pose": {...}} as JSON text.
 std::string scene_meta_json(const Scene& scene);
 
-// Writes the sample folder (core files + depth, rays, normals, scene meta).
-void write_synth_sample(const std::string& folder, const SynthSample& sample);
+// Which files write_synth_sample writes: all of them, or only what training reads (the core
+// files of data/sample.h: a training pool at a quarter of the disk space).
+enum class SynthFiles { kAll, kCore };
+
+// Writes the sample folder (core files + depth, rays, normals unless kCore; scene meta).
+void write_synth_sample(const std::string& folder, const SynthSample& sample,
+                        SynthFiles files = SynthFiles::kAll);
 
 }  // namespace omnipoint::data::synth
