@@ -2,6 +2,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -121,8 +122,13 @@ int launch_local(int nproc, const std::vector<std::string>& arguments,
          "MASTER_ADDR=127.0.0.1", "MASTER_PORT=" + port});
     std::vector<char*> argv = c_strings(argv_strings);
     std::vector<char*> envp = c_strings(env_strings);
+    const pid_t launcher = getpid();
     const pid_t pid = fork();
     if (pid == 0) {
+      // A rank ends with the launcher, however it ends (Ctrl-C, SIGTERM, SIGKILL): orphaned
+      // ranks would go on training and writing into the run's folder beside a resumed run.
+      prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (getppid() != launcher) _exit(1);  // the launcher died before prctl
       execve(executable.c_str(), argv.data(), envp.data());
       _exit(127);
     }
