@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Training throughput of two builds side by side: rounds of A then B, each a fresh
 # `omnipoint train` stopped after a number of steps, the training loop's images/s (the last log
-# record's, which leaves out the start-up) compared round by round. docs/PERFORMANCE.md has the
-# results.
+# record's, which leaves out the start-up) compared round by round. docs/PERFORMANCE.md
+# ("Training throughput") has the results; bench/train_throughput/ the two configs compared there.
 #   bench/train_side_by_side.sh A_BINARY A_CONFIG A_ARGS B_BINARY B_CONFIG B_ARGS STEPS_A STEPS_B [ROUNDS=3]
 # A_ARGS / B_ARGS: extra arguments of `train` (e.g. "--nproc 2"; "" for none). Each config's
 # output_dir is emptied before each run.
@@ -22,7 +22,7 @@ rate() {  # BINARY CONFIG ARGS STEPS -> images/s of the training loop
   /usr/bin/python3 -c '
 import json, sys
 records = [json.loads(l) for l in open(sys.argv[1]) if "images_per_s" in l]
-print(f"{records[-1][\"images_per_s\"]:.3f}")' "$out/log.jsonl"
+print("%.3f" % records[-1]["images_per_s"])' "$out/log.jsonl"
 }
 
 echo "round  A images/s  B images/s  B/A"

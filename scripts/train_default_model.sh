@@ -2,7 +2,7 @@
 # How the bundled model (models/omnipoint_default.safetensors) is made; docs/TRAINING.md,
 # "The bundled model".
 #   scripts/train_default_model.sh [OMNIPOINT_BINARY]
-# 1. Renders the training pool (benchmarks/training_pool_v1.json, 20,000 samples, ~40 minutes on
+# 1. Renders the training pool (benchmarks/training_pool_v1.json, 20,000 samples, ~31 minutes on
 #    2 cores) into data/training_pool_v1/, two shards side by side; an interrupted render resumes.
 # 2. Trains examples/train/default_model/omnipoint_default.json on two data-parallel ranks (one
 #    core each) into runs/default_model/; an interrupted run resumes from its last checkpoint.

@@ -31,7 +31,7 @@ const std::string kMoGe2 =
 
 TEST(Infer, LoadNetworkDispatchesOnTheFormat) {
   EXPECT_EQ(load_network(kBundled).format(), "omnipoint");
-  EXPECT_EQ(load_network(kBundled).default_num_tokens(), 36);
+  EXPECT_EQ(load_network(kBundled).default_num_tokens(), 64);
   EXPECT_EQ(load_network(kMoGe2).format(), "moge2");
   // Errors name the path: unreadable -> runtime_error, not a model we know -> invalid_argument.
   const auto message = [](const auto& load) {

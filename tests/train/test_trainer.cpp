@@ -286,6 +286,29 @@ TEST(TrainConfig, ScheduleFactorsAndNewKeys) {
   EXPECT_THROW(TrainConfig::from_json(sized), std::invalid_argument);
 }
 
+// Every config the repository ships (recipes, ablations, benchmarks) parses with today's keys,
+// and the bundled model's architecture file is the default recipe's network.
+TEST(TrainConfig, ShippedConfigsParse) {
+  const fs::path root(OMNIPOINT_SOURCE_DIR);
+  int parsed = 0;
+  for (const fs::path& folder : {root / "examples" / "train", root / "bench" / "train_throughput"})
+    for (const auto& entry : fs::recursive_directory_iterator(folder)) {
+      if (entry.path().extension() != ".json") continue;
+      std::ifstream in(entry.path());
+      std::stringstream text;
+      text << in.rdbuf();
+      EXPECT_NO_THROW(TrainConfig::from_text(text.str(), entry.path().string())) << entry.path();
+      ++parsed;
+    }
+  EXPECT_GE(parsed, 4);
+  const auto read_json = [](const fs::path& path) {
+    std::ifstream in(path);
+    return json::parse(in);
+  };
+  EXPECT_EQ(read_json(root / "examples/train/default_model/omnipoint_default.json")["model"],
+            read_json(root / "benchmarks/models/omnipoint_default_arch.json"));
+}
+
 // A mirrored item is the mirror image of the same item: image, labels and rays (x negated).
 TEST(BatchSource, FlipMirrorsImageLabelsAndRays) {
   json config = tiny_config("x");
