@@ -105,7 +105,7 @@ TEST(Losses, ScaleFitOnAPixelSubset) {
   EXPECT_FALSE(at::equal(subset_scale, all_scale));
   EXPECT_TRUE(at::allclose(subset_scale, all_scale, 0.05, 0.0)) << subset_scale << all_scale;
   LossConfig whole = config;
-  whole.align_points = 24 * 24;
+  whole.align_points = int64_t{24} * 24;
   EXPECT_TRUE(at::equal(compute_losses(make_output(rays, noisy), targets, whole, generator()).scale,
                         all_scale));
   subset.point_loss = PointLoss::kDisjoint;
