@@ -1,6 +1,8 @@
 #include "omnipoint/augment/p2a.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <cmath>
@@ -45,22 +47,54 @@ void check_inputs(const camera::Camera& source, const at::Tensor& image, const a
   }
 }
 
-// The 3 × 3 neighbourhood of a map (H, W, ...) stacked along a new leading dimension (9, ...),
-// `pad` outside the image.
-at::Tensor neighbourhood(const at::Tensor& map, double pad) {
-  const int64_t h = map.size(0), w = map.size(1);
-  std::vector<int64_t> padding(2 * map.dim(), 0);
-  // constant_pad_nd pads the last dimension first; the image dimensions are the first two.
-  padding[2 * map.dim() - 1] = 1;
-  padding[2 * map.dim() - 2] = 1;
-  padding[2 * map.dim() - 3] = 1;
-  padding[2 * map.dim() - 4] = 1;
-  const at::Tensor padded = at::constant_pad_nd(map, padding, pad);
-  std::vector<at::Tensor> shifted;
-  for (int64_t dy = 0; dy < 3; ++dy) {
-    for (int64_t dx = 0; dx < 3; ++dx) shifted.push_back(padded.narrow(0, dy, h).narrow(1, dx, w));
-  }
-  return at::stack(shifted, 0);
+// Hole filling of a z-buffer (H, W): a pixel without a point (not `hit`, on the camera's
+// domain) whose 3 × 3 neighbourhood holds at least 4 hits that agree in distance
+// (max <= min · (1 + tolerance)) takes their mean. Returns the filled pixels; `zdistance`
+// receives their values. One pass over the pixels (9 stacked shifted copies took ~1.6 s at
+// 2048 × 1024 here).
+at::Tensor fill_holes(at::Tensor& zdistance, const at::Tensor& hit, const at::Tensor& domain,
+                      double tolerance) {
+  const int64_t height = zdistance.size(0), width = zdistance.size(1);
+  const auto device = zdistance.device();
+  at::Tensor z_map = zdistance.to(at::kCPU).contiguous();
+  const at::Tensor hits = hit.to(at::kCPU).contiguous(), usable = domain.to(at::kCPU).contiguous();
+  at::Tensor filled = at::zeros({height, width}, hits.options());
+  AT_DISPATCH_FLOATING_TYPES(z_map.scalar_type(), "fill_holes", [&] {
+    scalar_t* z = z_map.data_ptr<scalar_t>();
+    const bool* h = hits.data_ptr<bool>();
+    const bool* on_domain = usable.data_ptr<bool>();
+    bool* out = filled.data_ptr<bool>();
+    // Holes are written, hits are read: a filled value never feeds another pixel's fill.
+    at::parallel_for(
+        0, height, std::max<int64_t>(1, 16384 / width), [&](int64_t begin, int64_t end) {
+          for (int64_t row = begin; row < end; ++row) {
+            for (int64_t col = 0; col < width; ++col) {
+              const int64_t at_pixel = row * width + col;
+              if (h[at_pixel] || !on_domain[at_pixel]) continue;
+              int count = 0;
+              scalar_t sum = 0, low = std::numeric_limits<scalar_t>::infinity(), high = -low;
+              for (int64_t r = std::max<int64_t>(row - 1, 0); r <= std::min(row + 1, height - 1);
+                   ++r) {
+                for (int64_t c = std::max<int64_t>(col - 1, 0); c <= std::min(col + 1, width - 1);
+                     ++c) {
+                  if (!h[r * width + c]) continue;
+                  const scalar_t value = z[r * width + c];
+                  ++count;
+                  sum += value;
+                  low = std::min(low, value);
+                  high = std::max(high, value);
+                }
+              }
+              if (count >= 4 && high <= low * (1 + static_cast<scalar_t>(tolerance))) {
+                z[at_pixel] = sum / count;
+                out[at_pixel] = true;
+              }
+            }
+          }
+        });
+  });
+  zdistance = z_map.to(device);
+  return filled.to(device);
 }
 
 // Angle between unit rays (..., 3), stable for small angles.
@@ -135,33 +169,18 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
   const at::Tensor virtual_points = (points - centre).matmul(rotation);  // Rᵀ (X − c), row form
   const camera::Pixels projected = target.camera.project(virtual_points);
   const at::Tensor splat_distance = virtual_points.norm(2, -1);
-  // The z-buffer keeps each pixel's nearest point; its value is the point's index (exact in
-  // float64 up to 2^53 points).
-  const at::Tensor point_index = at::arange(sub_ok.numel(), opts.dtype(at::kDouble));
-  const geometry::SparseDepth zbuffer =
-      geometry::rasterize_nearest(projected.pixels.to(at::kDouble), splat_distance.to(at::kDouble),
-                                  point_index, sub_ok & projected.valid, tw, th);
+  // The z-buffer keeps each pixel's nearest point and stores its distance.
+  const geometry::SparseDepth zbuffer = geometry::rasterize_nearest(
+      projected.pixels, splat_distance, splat_distance, sub_ok & projected.valid, tw, th);
   const at::Tensor hit = zbuffer.valid;
-  const at::Tensor winner = zbuffer.depth.to(at::kLong).reshape(-1);
-  at::Tensor zdistance = at::where(hit, splat_distance.index_select(0, winner).reshape({th, tw}),
-                                   at::zeros({th, tw}, opts));
+  at::Tensor zdistance = zbuffer.depth.to(opts.dtype());
 
   // Optional hole filling of the z-buffer: a gap whose hit neighbours agree in depth.
   const camera::Rays target_rays = target.camera.ray_map(opts);
   const double inf = std::numeric_limits<double>::infinity();  // "no point" in min-reductions
-  at::Tensor filled = at::zeros({th, tw}, opts.dtype(at::kBool));
-  if (options.fill_holes) {
-    const at::Tensor near =
-        neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, inf)), inf);
-    const at::Tensor far =
-        neighbourhood(at::where(hit, zdistance, at::full_like(zdistance, -inf)), -inf);
-    const at::Tensor count = neighbourhood(hit.to(opts.dtype()), 0.0).sum(0);
-    const at::Tensor nmin = std::get<0>(near.min(0)), nmax = std::get<0>(far.max(0));
-    const at::Tensor sum = neighbourhood(zdistance, 0.0).sum(0);
-    filled = hit.logical_not() & target_rays.valid & (count >= 4) &
-             (nmax <= nmin * (1.0 + options.tolerance));
-    zdistance = at::where(filled, sum / count.clamp_min(1), zdistance);
-  }
+  at::Tensor filled = options.fill_holes
+                          ? fill_holes(zdistance, hit, target_rays.valid, options.tolerance)
+                          : at::zeros({th, tw}, opts.dtype(at::kBool));
 
   // 2. Read-back along each target pixel's ray at the z-buffered distance.
   const at::Tensor surface =
@@ -169,8 +188,9 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
   const camera::Pixels in_source = source.project(surface);
   const SampledDistance readback =
       sample_distance(distance, mask, in_source.pixels, options.tolerance);
-  const at::Tensor source_surface =
-      source.unproject(in_source.pixels).rays * readback.value.unsqueeze(-1);
+  // The source ray through that pixel is the surface point's direction (a camera's
+  // unproject ∘ project is the identity on rays), so no unprojection is needed.
+  const at::Tensor source_surface = surface * (readback.value / surface.norm(2, -1)).unsqueeze(-1);
   const at::Tensor target_distance = (source_surface - centre).norm(2, -1);
   const at::Tensor colour = sample_image(image, in_source.pixels);
 

@@ -3,7 +3,9 @@
 // pinhole) rendered into a virtual camera of any model, giving (image, rays, distance, mask)
 // for a lens the dataset never had.
 //
-// How (per sample, vectorised over all pixels; CPU or CUDA, float32 or float64):
+// How (per sample, float32 or float64; the camera maths runs as tensor operations, the z-buffer,
+// the sampling and the hole filling as one parallel pass each on the CPU, where tensors of
+// another device are brought and returned):
 // 1. Forward splatting: the source is supersampled (s × s sub-pixel rays, each carrying its
 //    distance, bilinear within agreeing pixel quads), lifted to 3-D points, moved into the virtual frame
 //    (X_virtual = Rᵀ (X_source − c)), projected, and z-buffered per target pixel

@@ -1,6 +1,8 @@
 #include "omnipoint/geometry/sparse_sampling.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 
 #include <cmath>
 #include <limits>
@@ -239,36 +241,49 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
   const int64_t n = pixels.size(-2);
   int64_t batch = 1;
   for (std::size_t i = 0; i + 1 < point_shape.size(); ++i) batch *= point_shape[i];
-  const at::Tensor p = pixels.reshape({batch, n, 2});
-  const at::Tensor d = distance.reshape({batch, n}).to(p.scalar_type());
-  const at::Tensor v = value.reshape({batch, n}).to(p.scalar_type());
-  const at::Tensor col = at::floor(p.select(-1, 0)), row = at::floor(p.select(-1, 1));
-  const at::Tensor ok = valid.reshape({batch, n})
-                            .logical_and(col >= 0)
-                            .logical_and(col < width)
-                            .logical_and(row >= 0)
-                            .logical_and(row < height)
-                            .logical_and(at::isfinite(d))
-                            .logical_and(d > 0)
-                            .logical_and(at::isfinite(v));
-  const at::Tensor item = at::arange(batch, p.options().dtype(at::kLong)).unsqueeze(1);
-  const at::Tensor target =
-      at::where(ok, item * (height * width) + row.to(at::kLong) * width + col.to(at::kLong),
-                at::zeros_like(item))
-          .reshape(-1);
+  // One pass over the points with a depth test per pixel, on the CPU (a scatter-based
+  // z-buffer took ~1 s for a million points here); tensors of other devices come back there.
+  const auto cpu = at::TensorOptions().dtype(pixels.scalar_type());
+  const at::Tensor p = pixels.reshape({batch, n, 2}).to(cpu).contiguous();
+  const at::Tensor d = distance.reshape({batch, n}).to(cpu).contiguous();
+  const at::Tensor v = value.reshape({batch, n}).to(cpu).contiguous();
+  const at::Tensor ok = valid.reshape({batch, n}).to(at::kCPU).contiguous();
   const double inf = std::numeric_limits<double>::infinity();
-  const at::Tensor masked = at::where(ok, d, at::full_like(d, inf)).reshape(-1);
-  const at::Tensor nearest =
-      scatter_amin(at::full({batch * height * width}, inf, p.options()), target, masked);
-  const at::Tensor winner = ok.reshape(-1).logical_and(masked == nearest.index_select(0, target));
-  const at::Tensor stored =
-      scatter_amin(at::full({batch * height * width}, inf, p.options()), target,
-                   at::where(winner, v.reshape(-1), at::full_like(masked, inf)));
-  const at::Tensor hit = at::isfinite(nearest);
+  at::Tensor nearest = at::full({batch, height, width}, inf, cpu);
+  at::Tensor stored = at::zeros({batch, height, width}, cpu);
+  AT_DISPATCH_FLOATING_TYPES(p.scalar_type(), "rasterize_nearest", [&] {
+    const scalar_t* xy = p.data_ptr<scalar_t>();
+    const scalar_t* dist = d.data_ptr<scalar_t>();
+    const scalar_t* val = v.data_ptr<scalar_t>();
+    const bool* use = ok.data_ptr<bool>();
+    scalar_t* best = nearest.data_ptr<scalar_t>();
+    scalar_t* out = stored.data_ptr<scalar_t>();
+    // Items are independent images.
+    at::parallel_for(0, batch, 1, [&](int64_t first, int64_t last) {
+      for (int64_t item = first; item < last; ++item) {
+        scalar_t* item_best = best + item * height * width;
+        scalar_t* item_out = out + item * height * width;
+        for (int64_t i = item * n; i < (item + 1) * n; ++i) {
+          const scalar_t col = std::floor(xy[2 * i]), row = std::floor(xy[2 * i + 1]);
+          const scalar_t z = dist[i], stored_value = val[i];
+          // Negated comparisons drop NaN coordinates as well.
+          if (!use[i] || !(col >= 0 && col < width && row >= 0 && row < height) ||
+              !std::isfinite(z) || !(z > 0) || !std::isfinite(stored_value))
+            continue;
+          const int64_t cell = static_cast<int64_t>(row) * width + static_cast<int64_t>(col);
+          if (z < item_best[cell] || (z == item_best[cell] && stored_value < item_out[cell])) {
+            item_best[cell] = z;
+            item_out[cell] = stored_value;
+          }
+        }
+      }
+    });
+  });
   auto shape = std::vector<int64_t>(point_shape.begin(), point_shape.end() - 1);
   shape.push_back(height);
   shape.push_back(width);
-  return {at::where(hit, stored, at::zeros_like(stored)).reshape(shape), hit.reshape(shape)};
+  const auto device = pixels.device();
+  return {stored.reshape(shape).to(device), at::isfinite(nearest).reshape(shape).to(device)};
 }
 
 at::Tensor resize_sparse_map(const at::Tensor& map, std::int64_t width, std::int64_t height) {

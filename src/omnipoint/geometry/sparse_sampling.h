@@ -60,7 +60,8 @@ enum class SparseValue { Distance, PlanarDepth };
 // convention of DESIGN.md), their distances (..., N) from the camera, the values to store
 // (..., N) and a validity (..., N). Each image pixel [i, i+1) x [j, j+1) keeps the value of
 // its nearest point (ties: the smallest value). Points outside the image, invalid or with
-// non-finite or non-positive distance are dropped. Returns (..., height, width).
+// non-finite or non-positive distance are dropped. Returns (..., height, width). One pass
+// over the points on the CPU (other devices' tensors go there and the result comes back).
 SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distance,
                               const at::Tensor& value, const at::Tensor& valid, std::int64_t width,
                               std::int64_t height);
