@@ -128,5 +128,3 @@ void BM_ComputeMetricsFixtureInstance3(benchmark::State& state) {
 BENCHMARK(BM_ComputeMetricsFixtureInstance3)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -67,5 +67,3 @@ BENCHMARK(BM_AllReduceGradients)
     ->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

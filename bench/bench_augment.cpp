@@ -75,5 +75,3 @@ void BM_A2P_ExtractAndStitch(benchmark::State& state) {
 BENCHMARK(BM_A2P_ExtractAndStitch)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

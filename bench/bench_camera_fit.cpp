@@ -57,4 +57,3 @@ BENCHMARK(BM_FitCameraAuto)->Apply(sizes_and_kinds);
 BENCHMARK(BM_FitCameraModel)->Apply(sizes_and_kinds);
 
 }  // namespace
-BENCHMARK_MAIN();

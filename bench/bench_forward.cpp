@@ -18,6 +18,7 @@
 #include <fstream>
 #include <string>
 
+#include "omnipoint/io/process_memory.h"
 #include "omnipoint/model/moge2.h"
 #include "omnipoint/model/precision.h"
 
@@ -165,6 +166,7 @@ BENCHMARK(BM_Forward)->Apply(variants);
 }  // namespace
 
 int main(int argc, char** argv) {
+  omnipoint::io::keep_freed_memory_in_heap();  // as `omnipoint forward` does
   at::set_num_threads(2);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

@@ -62,5 +62,3 @@ void BM_WritePly(benchmark::State& state) {
 BENCHMARK(BM_WritePly)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

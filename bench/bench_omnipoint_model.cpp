@@ -85,5 +85,3 @@ void BM_ConditionTokens(benchmark::State& state) {
 BENCHMARK(BM_ConditionTokens)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -64,4 +64,3 @@ BENCHMARK(BM_WriteAllOutputs)
     ->UseRealTime();
 
 }  // namespace
-BENCHMARK_MAIN();

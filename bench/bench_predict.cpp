@@ -110,4 +110,3 @@ BENCHMARK(BM_PredictEndToEnd)
     ->UseRealTime();
 
 }  // namespace
-BENCHMARK_MAIN();

@@ -37,5 +37,3 @@ BENCHMARK_CAPTURE(ray_map, double_sphere_1920x1080,
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -76,4 +76,3 @@ BENCHMARK(BM_ParseSafetensors)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ReadSafetensorsF32)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ReadSafetensorsF16ToF32)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_EncodeSafetensors)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_MAIN();

@@ -49,5 +49,3 @@ BENCHMARK_CAPTURE(render, pinhole_object, kPinhole, SceneKind::kObject, true)
 BENCHMARK_CAPTURE(render, pinhole_indoor_no_shadows_no_ao, kPinhole, SceneKind::kIndoor, false)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-
-BENCHMARK_MAIN();

@@ -6,7 +6,6 @@
 // START_STEP > 0 starts in the middle of the schedule (e.g. stage 2, with its conditions and
 // augmentations) by setting the step counter; the weights are the config's initial ones.
 #include <ATen/Parallel.h>
-#include <malloc.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +14,7 @@
 #include <string>
 
 #include "omnipoint/io/atomic_file.h"
+#include "omnipoint/io/process_memory.h"
 #include "omnipoint/train/trainer.h"
 
 int main(int argc, char** argv) {
@@ -23,9 +23,7 @@ int main(int argc, char** argv) {
                  argv[0]);
     return 2;
   }
-  // As `omnipoint` (src/cli/main.cpp): freed memory stays in the heap.
-  mallopt(M_MMAP_THRESHOLD, 256 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  omnipoint::io::keep_freed_memory_in_heap();  // as `omnipoint` does
   try {
     using namespace omnipoint::train;
     const TrainConfig config = TrainConfig::from_text(omnipoint::io::read_file(argv[1]), argv[1]);

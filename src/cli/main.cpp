@@ -2,24 +2,18 @@
 #include <c10/util/Exception.h>
 #include <CLI/CLI.hpp>
 
-#include <malloc.h>
-
 #include <cstdio>
 #include <exception>
 #include <iostream>
 
 #include "cli/commands.h"
 #include "cli/threads.h"
+#include "omnipoint/io/process_memory.h"
 
 // A function-try-block: nothing escapes main, not even from setting the commands up or from
 // printing an error.
 int main(int argc, char** argv) try {
-  // Freed memory stays in the heap for the next allocation. LibTorch allocates and frees
-  // tensors of a few hundred kB to a few MB in every op; glibc maps each one afresh from the
-  // kernel by default, and the page faults of that (~470 k while rendering 8 training samples)
-  // cost as much time as the work itself (docs/PERFORMANCE.md).
-  mallopt(M_MMAP_THRESHOLD, 256 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  omnipoint::io::keep_freed_memory_in_heap();
   CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
