@@ -5,8 +5,10 @@
 # 1. Renders the training pool (benchmarks/training_pool_v1.json, 20,000 samples, ~31 minutes on
 #    2 cores) into data/training_pool_v1/, two shards side by side; an interrupted render resumes.
 # 2. Trains examples/train/default_model/omnipoint_default.json on two data-parallel ranks (one
-#    core each) into runs/default_model/; an interrupted run resumes from its last checkpoint.
-# 3. Ships the EMA weights as F16.
+#    core each) into runs/default_model/ (48,000 images), then continues from its EMA weights
+#    with omnipoint_default_longer.json into runs/default_model_longer/ (84,000 more); an
+#    interrupted run resumes from its last checkpoint.
+# 3. Ships the final EMA weights as F16.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 omnipoint=${1:-build/src/cli/omnipoint}
@@ -18,8 +20,13 @@ config=examples/train/default_model/omnipoint_default.json
   --threads 1 --shard 1/2 --out data/training_pool_v1 > /dev/null
 wait
 
-resume=()
-[[ -e runs/default_model/checkpoints/latest ]] && resume=(--resume runs/default_model)
-"$omnipoint" train --config "$config" --nproc 2 "${resume[@]}"
-/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model/model_ema.safetensors \
+train() {  # CONFIG RUN_DIR; a finished run (its final EMA weights written) is kept
+  [[ -f $2/model_ema.safetensors ]] && return
+  local resume=()
+  [[ -e $2/checkpoints/latest ]] && resume=(--resume "$2")
+  "$omnipoint" train --config "$1" --nproc 2 "${resume[@]}"
+}
+train "$config" runs/default_model
+train examples/train/default_model/omnipoint_default_longer.json runs/default_model_longer
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_longer/model_ema.safetensors \
   models/omnipoint_default.safetensors
