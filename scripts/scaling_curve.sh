@@ -2,8 +2,10 @@
 # Held-out scores against images seen: scores the EMA weights of every checkpoint of a training
 # run on a benchmark (modes none and +K) and prints a table of points Rel per split.
 #   scripts/scaling_curve.sh RUN_DIR DATA_DIR IMAGES_PER_STEP [OMNIPOINT_BINARY]
-# IMAGES_PER_STEP: the global batch (batch_size × ranks). Checkpoints already scored (their
-# RUN_DIR/scaling/step_N/summary.json exists) are kept. docs/TRAINING.md has the default model's.
+# IMAGES_PER_STEP: the global batch (batch_size × ranks); IMAGES_BEFORE (environment, default 0):
+# the images seen before the run (a run initialised from another one). Checkpoints already
+# scored (their RUN_DIR/scaling/step_N/summary.json exists) are kept. docs/TRAINING.md has the
+# default model's.
 set -euo pipefail
 run=${1:?usage: scripts/scaling_curve.sh RUN_DIR DATA_DIR IMAGES_PER_STEP [OMNIPOINT_BINARY]}
 data=${2:?DATA_DIR}
@@ -20,9 +22,9 @@ for checkpoint in "$run"/checkpoints/step_*/; do
     { echo "scaling_curve: eval of $step failed ($run/scaling/$step.log)" >&2; exit 1; }
 done
 
-/usr/bin/python3 - "$run/scaling" "$per_step" <<'EOF'
+/usr/bin/python3 - "$run/scaling" "$per_step" "${IMAGES_BEFORE:-0}" <<'EOF'
 import json, pathlib, sys
-root, per_step = pathlib.Path(sys.argv[1]), int(sys.argv[2])
+root, per_step, before = pathlib.Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 splits = ["S.FoV", "L.FoV", "360°"]
 print("| step | images seen | " + " | ".join(f"{s} points Rel (none / +K)" for s in splits) + " |")
 print("|---|---|" + "---|" * len(splits))
@@ -36,5 +38,5 @@ for summary_path in sorted(root.glob("step_*/summary.json"),
         rel = [modes.get(m, {}).get("entries", {}).get("points_scale_invariant", {}).get("rel")
                for m in ("none", "+K")]
         cells.append(" / ".join("–" if r is None else f"{100 * r:.1f}" for r in rel))
-    print(f"| {step} | {step * per_step:,} | " + " | ".join(cells) + " |")
+    print(f"| {step} | {before + step * per_step:,} | " + " | ".join(cells) + " |")
 EOF
