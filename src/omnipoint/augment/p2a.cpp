@@ -177,7 +177,6 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
 
   // Optional hole filling of the z-buffer: a gap whose hit neighbours agree in depth.
   const camera::Rays target_rays = target.camera.ray_map(opts);
-  const double inf = std::numeric_limits<double>::infinity();  // "no point" in min-reductions
   at::Tensor filled = options.fill_holes
                           ? fill_holes(zdistance, hit, target_rays.valid, options.tolerance)
                           : at::zeros({th, tw}, opts.dtype(at::kBool));
@@ -204,6 +203,7 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
                      ((target_distance - zdistance).abs() <= options.occlusion_margin * zdistance);
   if (gap > 0) {
     const int64_t k = 2 * gap + 1;
+    const double inf = std::numeric_limits<double>::infinity();  // "no point" in the min-pool
     const at::Tensor nearest_around =
         -at::max_pool2d(-at::where(hit, zdistance, at::full_like(zdistance, inf)).unsqueeze(0),
                         {k, k}, {1, 1}, {gap, gap})
