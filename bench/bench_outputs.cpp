@@ -1,8 +1,10 @@
 // Writing every output file of one prediction (predict::write_prediction_outputs with
 // --outputs all) for a synthetic prediction: a pinhole view of a bumpy wall with a step and a
 // hole, a random image. Each file's time is a counter in ms (camera.json's timing_ms.files),
-// next to the whole call's.
+// next to the whole call's. range(2) is the thread count (`omnipoint predict` uses every core):
+// the files are written concurrently, one per thread.
 #include <ATen/ATen.h>
+#include <ATen/Parallel.h>
 #include <benchmark/benchmark.h>
 #include <nlohmann/json.hpp>
 
@@ -20,9 +22,11 @@ namespace {
 using namespace omnipoint;
 namespace fs = std::filesystem;
 
-// range(0) x range(1): the image size.
+// range(0) x range(1): the image size; range(2): threads.
 void BM_WriteAllOutputs(benchmark::State& state) {
   const int64_t width = state.range(0), height = state.range(1);
+  const int threads_before = at::get_num_threads();
+  at::set_num_threads(static_cast<int>(state.range(2)));
   const camera::Camera camera =
       camera::parse_camera("PINHOLE " + std::to_string(width) + " " + std::to_string(height) + " " +
                            std::to_string(0.8 * width) + " " + std::to_string(0.8 * width) + " " +
@@ -55,10 +59,14 @@ void BM_WriteAllOutputs(benchmark::State& state) {
   for (const auto& [name, ms] : files.items()) state.counters[name] = ms.get<double>();
   state.counters["writing_ms"] = writing / static_cast<double>(state.iterations());
   fs::remove_all(folder.parent_path());
+  at::set_num_threads(threads_before);
 }
 BENCHMARK(BM_WriteAllOutputs)
-    ->Args({640, 480})
-    ->Args({4000, 3000})
+    ->ArgNames({"width", "height", "threads"})
+    ->Args({640, 480, 1})
+    ->Args({640, 480, 2})
+    ->Args({4000, 3000, 1})
+    ->Args({4000, 3000, 2})
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -83,5 +83,47 @@ TEST(SampleDistance, NoBlendAcrossADepthStepOrAnUnlabelledCorner) {
   EXPECT_FALSE(bad.ok.any().item<bool>());
 }
 
+// sample_image is grid_sample (bilinear, border padding, align_corners = false) in pixel
+// coordinates: the same colours at positions inside, on the border and far outside, in both
+// precisions, for 1 and 4 channels.
+TEST(SampleImage, MatchesGridSampleWithBorderPadding) {
+  at::manual_seed(3);
+  for (const auto dtype : {at::kFloat, at::kDouble}) {
+    for (const int64_t channels : {1, 4}) {
+      const at::Tensor image = at::rand({7, 9, channels}, dtype);
+      at::Tensor pixels = at::rand({500, 2}, at::kDouble) * at::tensor({13.0, 11.0}) - 2;
+      pixels = at::cat(
+          {pixels, at::tensor({0.0, 0.0, 9.0, 7.0, 0.5, 0.5, 8.5, 6.5, 1e6, -1e6}, at::kDouble)
+                       .view({5, 2})});
+      const at::Tensor sampled = sample_image(image, pixels.view({5, 101, 2}));
+      ASSERT_EQ(sampled.sizes(), at::IntArrayRef({5, 101, channels}));
+      ASSERT_EQ(sampled.scalar_type(), dtype);
+      const at::Tensor p = pixels.to(dtype);
+      const at::Tensor grid =
+          at::stack({p.select(-1, 0) * (2.0 / 9) - 1, p.select(-1, 1) * (2.0 / 7) - 1}, -1)
+              .view({1, 1, -1, 2});
+      const at::Tensor reference =
+          at::grid_sampler_2d(image.permute({2, 0, 1}).unsqueeze(0), grid, /*bilinear*/ 0,
+                              /*border*/ 1, /*align_corners*/ false)
+              .view({channels, -1})
+              .t();
+      EXPECT_TRUE(at::allclose(sampled.view({-1, channels}), reference, 1e-5, 1e-6))
+          << (sampled.view({-1, channels}) - reference).abs().max().item<double>();
+    }
+  }
+}
+
+// A NaN or infinite position gives a colour of the image (P2A and A2P mark such samples
+// invalid through the projection), never a read outside it.
+TEST(SampleImage, NonFinitePositionsStayInsideTheImage) {
+  const at::Tensor image = at::rand({4, 5, 3});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const at::Tensor pixels = at::tensor({nan, 1.0, 1.0, nan, inf, -inf, nan, nan}).view({4, 2});
+  const at::Tensor sampled = sample_image(image, pixels);
+  EXPECT_TRUE(at::isfinite(sampled).all().item<bool>());
+  EXPECT_LE(sampled.max().item<double>(), image.max().item<double>());
+}
+
 }  // namespace
 }  // namespace omnipoint::augment

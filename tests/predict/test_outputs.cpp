@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -26,6 +27,7 @@
 #include "omnipoint/predict/predictor.h"
 #include "support/fast_synth.h"
 #include "support/glb_chunks.h"
+#include "support/thread_count.h"
 
 namespace omnipoint::predict {
 namespace {
@@ -255,6 +257,55 @@ TEST(PredictOutputs, SelectionWritesExactlyTheChosenFiles) {
               options.files.count("points.ply") + options.files.count("preview.png") > 0)
         << list;
   }
+}
+
+// On two threads the files are written concurrently (and the geometry's parallel loops run in
+// parallel elsewhere): every byte must be what one thread writes.
+TEST(PredictOutputs, ConcurrentWritingMatchesOneThread) {
+  const data::synth::SynthSample synth = render("PINHOLE 64 48 52 52 32 24");
+  Prediction p = prediction_from_geometry(synth.rays, synth.sample.distance, synth.sample.mask);
+  p.fitted_camera = camera::parse_camera("PINHOLE 64 48 52 52 32 24");
+  OutputOptions options;
+  options.files = parse_output_list("all");
+  options.camera_from_world = at::eye(4, at::kDouble);
+  const fs::path root = fresh_dir("concurrent");
+  for (const int threads : {1, 2}) {
+    const test::ThreadCount count(threads);
+    write_prediction_outputs((root / std::to_string(threads)).string(), synth.sample.image, p,
+                             options);
+  }
+  const std::set<std::string> files = files_in(root / "1");
+  ASSERT_EQ(files_in(root / "2"), files);
+  ASSERT_EQ(files.size(), options.files.size() + 2);  // + points_world.ply, cameras.txt
+  for (const std::string& file : files) {
+    if (file == "camera.json") continue;
+    EXPECT_EQ(io::read_file((root / "2" / file).string()),
+              io::read_file((root / "1" / file).string()))
+        << file;
+  }
+  auto one = camera_json(root / "1"), two = camera_json(root / "2");
+  EXPECT_EQ(two["timing_ms"]["files"].size(), one["timing_ms"]["files"].size());
+  one.erase("timing_ms");
+  two.erase("timing_ms");
+  EXPECT_EQ(two, one);
+}
+
+// A file that fails while others are being written: its error comes out, and nothing of the
+// folder is left (a non-finite point inside the mask cannot go into mesh.glb).
+TEST(PredictOutputs, AFailingFileLeavesNoFolderOnTwoThreads) {
+  const test::ThreadCount count(2);
+  Prediction p = step_prediction();
+  p.points[2][5][0] = std::numeric_limits<float>::infinity();
+  OutputOptions options;
+  options.files = parse_output_list("all");
+  const fs::path parent = fresh_dir("failing");
+  try {
+    write_prediction_outputs((parent / "sample").string(), at::rand({6, 8, 3}), p, options);
+    FAIL() << "expected the mesh to fail";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "glb: points must be finite");
+  }
+  EXPECT_TRUE(fs::is_empty(parent));
 }
 
 // The PNGs' scales, and the valid pixels each cannot hold, counted in camera.json.

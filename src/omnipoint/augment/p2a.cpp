@@ -9,6 +9,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "omnipoint/augment/warp.h"
 #include "omnipoint/geometry/sparse_sampling.h"
@@ -97,6 +99,92 @@ at::Tensor fill_holes(at::Tensor& zdistance, const at::Tensor& hit, const at::Te
   return filled.to(device);
 }
 
+// The point-wise steps between the source frame and the virtual camera's
+// (X_source = R · X_virtual + c), one pass per point on the CPU: as tensor operations (a matmul
+// of (N, 3) by (3, 3), norms over the length-3 last dimension) they took ~30 ms for the two
+// million points of a 2048 × 1024 panorama, most of it in temporaries. `map(x, out)` reads the
+// point's three inputs x and writes its outputs; the result keeps `like`'s dtype and device.
+template <int kOutputs, typename Map>
+at::Tensor map_points(const at::Tensor& a, const at::Tensor& scale, const at::Tensor& like,
+                      const Map& map) {
+  const at::Tensor in = a.to(at::kCPU, like.scalar_type()).contiguous();
+  const at::Tensor factor = scale.to(at::kCPU, like.scalar_type()).contiguous();
+  const int64_t count = in.numel() / 3;
+  std::vector<int64_t> shape(a.sizes().begin(), a.sizes().end() - 1);
+  if (kOutputs > 1) shape.push_back(kOutputs);
+  at::Tensor out = at::empty(shape, in.options());
+  AT_DISPATCH_FLOATING_TYPES(in.scalar_type(), "p2a_map_points", [&] {
+    const scalar_t* x = in.data_ptr<scalar_t>();
+    const scalar_t* f = factor.data_ptr<scalar_t>();
+    scalar_t* o = out.data_ptr<scalar_t>();
+    at::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) map(x + 3 * i, f[i], o + kOutputs * i);
+    });
+  });
+  return out.to(like.device());
+}
+
+// The rotation's entries and the centre, as doubles on the host.
+struct Frame {
+  double r[3][3];
+  double c[3];
+};
+Frame frame_of(const at::Tensor& rotation, const at::Tensor& centre) {
+  const at::Tensor r = rotation.to(at::kCPU, at::kDouble).contiguous();
+  const at::Tensor c = centre.to(at::kCPU, at::kDouble).contiguous();
+  Frame frame{};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) frame.r[i][j] = r.data_ptr<double>()[3 * i + j];
+    frame.c[i] = c.data_ptr<double>()[i];
+  }
+  return frame;
+}
+
+// Source points ray · distance (N, 3), (N) in the virtual frame, Rᵀ (X − c), with their
+// distance from the virtual centre as a fourth column: (N, 4).
+at::Tensor to_virtual(const at::Tensor& rays, const at::Tensor& distance, const Frame& f) {
+  return map_points<4>(rays, distance, distance, [&f](const auto* ray, auto d, auto* out) {
+    using T = std::remove_const_t<std::remove_reference_t<decltype(*ray)>>;
+    T shifted[3];
+    for (int i = 0; i < 3; ++i) shifted[i] = ray[i] * d - static_cast<T>(f.c[i]);
+    T squared = 0;
+    for (int j = 0; j < 3; ++j) {
+      out[j] = shifted[0] * static_cast<T>(f.r[0][j]) + shifted[1] * static_cast<T>(f.r[1][j]) +
+               shifted[2] * static_cast<T>(f.r[2][j]);
+      squared += out[j] * out[j];
+    }
+    out[3] = std::sqrt(squared);
+  });
+}
+
+// Virtual rays at distances (N, 3), (N) in the source frame: c + R (ray · distance), (N, 3).
+at::Tensor to_source(const at::Tensor& rays, const at::Tensor& distance, const Frame& f) {
+  return map_points<3>(rays, distance, distance, [&f](const auto* ray, auto d, auto* out) {
+    using T = std::remove_const_t<std::remove_reference_t<decltype(*ray)>>;
+    for (int i = 0; i < 3; ++i)
+      out[i] = static_cast<T>(f.c[i]) +
+               (static_cast<T>(f.r[i][0]) * ray[0] + static_cast<T>(f.r[i][1]) * ray[1] +
+                static_cast<T>(f.r[i][2]) * ray[2]) *
+                   d;
+  });
+}
+
+// The distance from the virtual centre of the source's point at `distance` (N) along the
+// direction of each source-frame point (N, 3): |X · (d / |X|) − c|, (N).
+at::Tensor distance_from_centre(const at::Tensor& points, const at::Tensor& distance,
+                                const Frame& f) {
+  return map_points<1>(points, distance, distance, [&f](const auto* x, auto d, auto* out) {
+    using T = std::remove_const_t<std::remove_reference_t<decltype(*x)>>;
+    const T along = d / std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    T squared = 0;
+    for (int i = 0; i < 3; ++i) {
+      const T offset = x[i] * along - static_cast<T>(f.c[i]);
+      squared += offset * offset;
+    }
+    out[0] = std::sqrt(squared);
+  });
+}
+
 // Angle between unit rays (..., 3), stable for small angles.
 at::Tensor angle_between(const at::Tensor& a, const at::Tensor& b) {
   return at::atan2(at::cross(a, b, -1).norm(2, -1), (a * b).sum(-1));
@@ -165,10 +253,10 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
   const at::Tensor sub_distance = at::where(smooth.ok, smooth.value, own_distance);
   const at::Tensor sub_ok = sub_rays.valid & mask.reshape(-1).index_select(0, source_index) &
                             at::isfinite(sub_distance) & (sub_distance > 0);
-  const at::Tensor points = sub_rays.rays * sub_distance.unsqueeze(-1);
-  const at::Tensor virtual_points = (points - centre).matmul(rotation);  // Rᵀ (X − c), row form
-  const camera::Pixels projected = target.camera.project(virtual_points);
-  const at::Tensor splat_distance = virtual_points.norm(2, -1);
+  const Frame frame = frame_of(rotation, centre);
+  const at::Tensor virtual_points = to_virtual(sub_rays.rays, sub_distance, frame);
+  const camera::Pixels projected = target.camera.project(virtual_points.narrow(-1, 0, 3));
+  const at::Tensor splat_distance = virtual_points.select(-1, 3);
   // The z-buffer keeps each pixel's nearest point and stores its distance.
   const geometry::SparseDepth zbuffer = geometry::rasterize_nearest(
       projected.pixels, splat_distance, splat_distance, sub_ok & projected.valid, tw, th);
@@ -182,15 +270,13 @@ P2AResult perspective_to_any(const camera::Camera& source, const at::Tensor& ima
                           : at::zeros({th, tw}, opts.dtype(at::kBool));
 
   // 2. Read-back along each target pixel's ray at the z-buffered distance.
-  const at::Tensor surface =
-      centre + (target_rays.rays * zdistance.unsqueeze(-1)).matmul(rotation.t());
+  const at::Tensor surface = to_source(target_rays.rays, zdistance, frame);
   const camera::Pixels in_source = source.project(surface);
   const SampledDistance readback =
       sample_distance(distance, mask, in_source.pixels, options.tolerance);
   // The source ray through that pixel is the surface point's direction (a camera's
   // unproject ∘ project is the identity on rays), so no unprojection is needed.
-  const at::Tensor source_surface = surface * (readback.value / surface.norm(2, -1)).unsqueeze(-1);
-  const at::Tensor target_distance = (source_surface - centre).norm(2, -1);
+  const at::Tensor target_distance = distance_from_centre(surface, readback.value, frame);
   const at::Tensor colour = sample_image(image, in_source.pixels);
 
   // 3. Validity: the read-back surface is the z-buffered one, inside the source frustum, and,

@@ -27,8 +27,9 @@ struct SampledDistance {
 SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& valid,
                                 const at::Tensor& pixels, double tolerance);
 
-// Bilinear sampling of an image (H, W, C) at pixels (..., 2) with the same convention and
-// clamping (grid_sample, align_corners = false, border padding). Returns (..., C).
+// Bilinear sampling of a floating image (H, W, C) at pixels (..., 2) with the same convention
+// and clamping (grid_sample's align_corners = false with border padding). Returns (..., C) on
+// the image's device.
 at::Tensor sample_image(const at::Tensor& image, const at::Tensor& pixels);
 
 }  // namespace omnipoint::augment

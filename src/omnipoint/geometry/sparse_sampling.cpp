@@ -4,6 +4,7 @@
 #include <ATen/Dispatch.h>
 #include <ATen/Parallel.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -258,16 +259,24 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
     const bool* use = ok.data_ptr<bool>();
     scalar_t* best = nearest.data_ptr<scalar_t>();
     scalar_t* out = stored.data_ptr<scalar_t>();
-    // Items are independent images.
-    at::parallel_for(0, batch, 1, [&](int64_t first, int64_t last) {
-      for (int64_t item = first; item < last; ++item) {
+    // Items are independent images, and so are bands of rows within one: a thread takes an
+    // (item, band) pair and scans that item's points for its rows. The winner of a pixel does
+    // not depend on the order of the points, so the result does not depend on the split.
+    const int64_t bands =
+        std::clamp<int64_t>(at::get_num_threads() / std::max<int64_t>(batch, 1), 1, height);
+    const int64_t band_rows = (height + bands - 1) / bands;
+    at::parallel_for(0, batch * bands, 1, [&](int64_t first, int64_t last) {
+      for (int64_t task = first; task < last; ++task) {
+        const int64_t item = task / bands, band = task % bands;
+        const auto top = static_cast<scalar_t>(band * band_rows);
+        const auto bottom = static_cast<scalar_t>(std::min(height, (band + 1) * band_rows));
         scalar_t* item_best = best + item * height * width;
         scalar_t* item_out = out + item * height * width;
         for (int64_t i = item * n; i < (item + 1) * n; ++i) {
           const scalar_t col = std::floor(xy[2 * i]), row = std::floor(xy[2 * i + 1]);
           const scalar_t z = dist[i], stored_value = val[i];
           // Negated comparisons drop NaN coordinates as well.
-          if (!use[i] || !(col >= 0 && col < width && row >= 0 && row < height) ||
+          if (!use[i] || !(col >= 0 && col < width && row >= top && row < bottom) ||
               !std::isfinite(z) || !(z > 0) || !std::isfinite(stored_value))
             continue;
           const int64_t cell = static_cast<int64_t>(row) * width + static_cast<int64_t>(col);

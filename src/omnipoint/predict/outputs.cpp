@@ -1,13 +1,18 @@
 #include "omnipoint/predict/outputs.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Parallel.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <filesystem>
+#include <functional>
+#include <mutex>
 #include <ostream>
 #include <random>
 #include <stdexcept>
@@ -133,6 +138,38 @@ double ms_since(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// Runs `jobs` on LibTorch's intra-op threads, each thread taking the next job in turn until
+// none is left or one has failed; then rethrows the first failure. Writing is mostly
+// single-threaded (encoders, the kernel copying into the page cache), so a job per core beats
+// one job at a time with parallel loops inside: within the region, LibTorch's own parallel
+// loops run on the calling thread.
+void write_concurrently(const std::vector<std::function<void()>>& jobs) {
+  std::atomic<size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  const auto work = [&] {
+    for (size_t job = next++; job < jobs.size() && !failed; job = next++) {
+      try {
+        jobs[job]();
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+        failed = true;
+      }
+    }
+  };
+  const auto threads = static_cast<int64_t>(
+      std::min<size_t>(jobs.size(), static_cast<size_t>(std::max(1, at::get_num_threads()))));
+  if (threads <= 1)
+    work();
+  else
+    at::parallel_for(0, threads, 1, [&](int64_t begin, int64_t end) {
+      for (int64_t thread = begin; thread < end; ++thread) work();
+    });
+  if (failure) std::rethrow_exception(failure);
+}
+
 }  // namespace
 
 std::set<std::string> default_output_files() {
@@ -206,75 +243,104 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
   try {
     nlohmann::json json = summary(p);
     nlohmann::json file_ms = nlohmann::json::object();
-    // Runs `write` (which computes what only its file needs) when `file` is wanted, timed.
-    const auto produce = [&](const char* file, const auto& write) {
-      if (!wanted(file)) return;
-      const auto file_start = std::chrono::steady_clock::now();
-      write((staging / file).string());
-      file_ms[file] = ms_since(file_start);
+    std::mutex json_mutex;  // the writers run concurrently; json and file_ms are shared
+    const auto record = [&](const auto& update) {
+      const std::lock_guard<std::mutex> lock(json_mutex);
+      update();
     };
-    geometry::PointCloud cloud;  // the valid points, shared by the PLY, the GLB and the preview
-    const bool world = options.camera_from_world.defined();
-    if (wanted("points.ply") || wanted("points.glb") || wanted("preview.png") || world) {
-      const auto cloud_start = std::chrono::steady_clock::now();
-      cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
-      json["timing_ms"]["valid_points"] = ms_since(cloud_start);
-    }
-    produce("points.ply",
-            [&](const std::string& path) { io::write_ply(path, cloud.points, cloud.colors); });
-    if (world) {
-      const auto world_start = std::chrono::steady_clock::now();
-      io::write_ply((staging / "points_world.ply").string(),
-                    world_points(cloud.points, options.camera_from_world), cloud.colors);
-      file_ms["points_world.ply"] = ms_since(world_start);
-      const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
-      json["camera_from_world"] =
-          std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
-    }
-    produce("points.glb", [&](const std::string& path) {
-      io::write_glb_points(path, cloud.points, cloud.colors);
-    });
-    produce("points.npy",
-            [&](const std::string& path) { io::write_npy(path, p.points.to(at::kFloat)); });
-    produce("distance.npy",
-            [&](const std::string& path) { io::write_npy(path, p.distance.to(at::kFloat)); });
-    produce("depth.npy",
-            [&](const std::string& path) { io::write_npy(path, p.depth.to(at::kFloat)); });
-    produce("rays.npy",
-            [&](const std::string& path) { io::write_npy(path, p.rays.to(at::kFloat)); });
-    produce("normals.npy", [&](const std::string& path) {
-      io::write_npy(path,
-                    geometry::normals_from_point_map(p.points, p.mask).normals.to(at::kFloat));
-    });
-    produce("mask.png", [&](const std::string& path) { io::write_image_png(path, p.mask); });
-    produce("depth.png", [&](const std::string& path) {
-      const Png16 png = quantize_png16(p.depth, p.mask & (p.depth > 0), kDepthPngUnitsPerMetre);
-      io::write_image_png(path, png.codes);
-      json["depth_png"] = png16_record("planar depth z", kDepthPngUnitsPerMetre, png);
-      json["depth_png"]["behind_camera_pixels"] = (p.mask & (p.depth <= 0)).sum().item<int64_t>();
-    });
-    produce("distance.png", [&](const std::string& path) {
-      const Png16 png = quantize_png16(p.distance, p.mask, kDistancePngUnitsPerMetre);
-      io::write_image_png(path, png.codes);
-      json["distance_png"] = png16_record("radial distance", kDistancePngUnitsPerMetre, png);
-    });
-    produce("depth_vis.png", [&](const std::string& path) {
-      io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
-    });
-    produce("image.png", [&](const std::string& path) { io::write_image_png(path, rgb); });
-    produce("preview.png", [&](const std::string& path) {
-      io::write_image_png(path, render_preview(cloud.points, cloud.colors));
-    });
+    // The files are independent, so they are written concurrently (write_concurrently), each
+    // computing what only it needs. Queued roughly longest first, so that the last to finish
+    // is a short one.
+    std::vector<std::function<void()>> jobs;
+    const auto produce = [&](const char* file, auto write) {
+      if (!wanted(file)) return;
+      jobs.push_back([&, file, write] {
+        const auto file_start = std::chrono::steady_clock::now();
+        write((staging / file).string());
+        const double ms = ms_since(file_start);
+        record([&] { file_ms[file] = ms; });
+      });
+    };
+    // The valid points, shared by the PLY, the GLB, the preview and the world PLY: made by
+    // whichever of them starts first.
+    geometry::PointCloud valid_cloud;
+    std::once_flag cloud_made;
+    const auto cloud = [&]() -> const geometry::PointCloud& {
+      std::call_once(cloud_made, [&] {
+        const auto cloud_start = std::chrono::steady_clock::now();
+        valid_cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
+        const double ms = ms_since(cloud_start);
+        record([&] { json["timing_ms"]["valid_points"] = ms; });
+      });
+      return valid_cloud;
+    };
     produce("mesh.glb", [&](const std::string& path) {
       const at::Tensor kept =
           p.mask & ~geometry::depth_edge_mask(p.distance, p.mask, options.mesh_edge_rtol);
       const geometry::GridMesh mesh = geometry::grid_mesh(p.points, kept);
       io::write_glb_mesh(path, mesh.vertices, rgb.reshape({-1, 3}).index_select(0, mesh.pixels),
                          mesh.faces);
-      json["mesh"] = {{"vertices", mesh.vertices.size(0)},
-                      {"triangles", mesh.faces.size(0)},
-                      {"edge_rtol", options.mesh_edge_rtol}};
+      record([&] {
+        json["mesh"] = {{"vertices", mesh.vertices.size(0)},
+                        {"triangles", mesh.faces.size(0)},
+                        {"edge_rtol", options.mesh_edge_rtol}};
+      });
     });
+    produce("normals.npy", [&](const std::string& path) {
+      io::write_npy(path,
+                    geometry::normals_from_point_map(p.points, p.mask).normals.to(at::kFloat));
+    });
+    produce("points.ply",
+            [&](const std::string& path) { io::write_ply(path, cloud().points, cloud().colors); });
+    const bool world = options.camera_from_world.defined();
+    if (world) {
+      const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
+      json["camera_from_world"] =
+          std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
+      jobs.push_back([&] {
+        const auto world_start = std::chrono::steady_clock::now();
+        io::write_ply((staging / "points_world.ply").string(),
+                      world_points(cloud().points, options.camera_from_world), cloud().colors);
+        const double ms = ms_since(world_start);
+        record([&] { file_ms["points_world.ply"] = ms; });
+      });
+    }
+    produce("points.glb", [&](const std::string& path) {
+      io::write_glb_points(path, cloud().points, cloud().colors);
+    });
+    produce("points.npy",
+            [&](const std::string& path) { io::write_npy(path, p.points.to(at::kFloat)); });
+    produce("rays.npy",
+            [&](const std::string& path) { io::write_npy(path, p.rays.to(at::kFloat)); });
+    produce("depth_vis.png", [&](const std::string& path) {
+      io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
+    });
+    produce("image.png", [&](const std::string& path) { io::write_image_png(path, rgb); });
+    produce("preview.png", [&](const std::string& path) {
+      io::write_image_png(path, render_preview(cloud().points, cloud().colors));
+    });
+    produce("depth.png", [&](const std::string& path) {
+      const Png16 png = quantize_png16(p.depth, p.mask & (p.depth > 0), kDepthPngUnitsPerMetre);
+      io::write_image_png(path, png.codes);
+      const int64_t behind = (p.mask & (p.depth <= 0)).sum().item<int64_t>();
+      record([&] {
+        json["depth_png"] = png16_record("planar depth z", kDepthPngUnitsPerMetre, png);
+        json["depth_png"]["behind_camera_pixels"] = behind;
+      });
+    });
+    produce("distance.png", [&](const std::string& path) {
+      const Png16 png = quantize_png16(p.distance, p.mask, kDistancePngUnitsPerMetre);
+      io::write_image_png(path, png.codes);
+      record([&] {
+        json["distance_png"] = png16_record("radial distance", kDistancePngUnitsPerMetre, png);
+      });
+    });
+    produce("distance.npy",
+            [&](const std::string& path) { io::write_npy(path, p.distance.to(at::kFloat)); });
+    produce("depth.npy",
+            [&](const std::string& path) { io::write_npy(path, p.depth.to(at::kFloat)); });
+    produce("mask.png", [&](const std::string& path) { io::write_image_png(path, p.mask); });
+    write_concurrently(jobs);
     std::set<std::string> written = options.files;
     written.insert("camera.json");
     if (world) written.insert("points_world.ply");
