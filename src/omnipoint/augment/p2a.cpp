@@ -102,15 +102,15 @@ at::Tensor fill_holes(at::Tensor& zdistance, const at::Tensor& hit, const at::Te
 // The point-wise steps between the source frame and the virtual camera's
 // (X_source = R · X_virtual + c), one pass per point on the CPU: as tensor operations (a matmul
 // of (N, 3) by (3, 3), norms over the length-3 last dimension) they took ~30 ms for the two
-// million points of a 2048 × 1024 panorama, most of it in temporaries. `map(x, out)` reads the
-// point's three inputs x and writes its outputs; the result keeps `like`'s dtype and device.
+// million points of a 2048 × 1024 panorama, most of it in temporaries. `map(x, s, out)` reads
+// a point's three coordinates x (N, 3) and its scalar s (N) and writes its kOutputs values; the
+// result has the scalars' dtype and device.
 template <int kOutputs, typename Map>
-at::Tensor map_points(const at::Tensor& a, const at::Tensor& scale, const at::Tensor& like,
-                      const Map& map) {
-  const at::Tensor in = a.to(at::kCPU, like.scalar_type()).contiguous();
-  const at::Tensor factor = scale.to(at::kCPU, like.scalar_type()).contiguous();
+at::Tensor map_points(const at::Tensor& points, const at::Tensor& scalars, const Map& map) {
+  const at::Tensor in = points.to(at::kCPU, scalars.scalar_type()).contiguous();
+  const at::Tensor factor = scalars.to(at::kCPU).contiguous();
   const int64_t count = in.numel() / 3;
-  std::vector<int64_t> shape(a.sizes().begin(), a.sizes().end() - 1);
+  std::vector<int64_t> shape(points.sizes().begin(), points.sizes().end() - 1);
   if (kOutputs > 1) shape.push_back(kOutputs);
   at::Tensor out = at::empty(shape, in.options());
   AT_DISPATCH_FLOATING_TYPES(in.scalar_type(), "p2a_map_points", [&] {
@@ -121,7 +121,7 @@ at::Tensor map_points(const at::Tensor& a, const at::Tensor& scale, const at::Te
       for (int64_t i = begin; i < end; ++i) map(x + 3 * i, f[i], o + kOutputs * i);
     });
   });
-  return out.to(like.device());
+  return out.to(scalars.device());
 }
 
 // The rotation's entries and the centre, as doubles on the host.
@@ -143,7 +143,7 @@ Frame frame_of(const at::Tensor& rotation, const at::Tensor& centre) {
 // Source points ray · distance (N, 3), (N) in the virtual frame, Rᵀ (X − c), with their
 // distance from the virtual centre as a fourth column: (N, 4).
 at::Tensor to_virtual(const at::Tensor& rays, const at::Tensor& distance, const Frame& f) {
-  return map_points<4>(rays, distance, distance, [&f](const auto* ray, auto d, auto* out) {
+  return map_points<4>(rays, distance, [&f](const auto* ray, auto d, auto* out) {
     using T = std::remove_const_t<std::remove_reference_t<decltype(*ray)>>;
     T shifted[3];
     for (int i = 0; i < 3; ++i) shifted[i] = ray[i] * d - static_cast<T>(f.c[i]);
@@ -159,7 +159,7 @@ at::Tensor to_virtual(const at::Tensor& rays, const at::Tensor& distance, const 
 
 // Virtual rays at distances (N, 3), (N) in the source frame: c + R (ray · distance), (N, 3).
 at::Tensor to_source(const at::Tensor& rays, const at::Tensor& distance, const Frame& f) {
-  return map_points<3>(rays, distance, distance, [&f](const auto* ray, auto d, auto* out) {
+  return map_points<3>(rays, distance, [&f](const auto* ray, auto d, auto* out) {
     using T = std::remove_const_t<std::remove_reference_t<decltype(*ray)>>;
     for (int i = 0; i < 3; ++i)
       out[i] = static_cast<T>(f.c[i]) +
@@ -173,7 +173,7 @@ at::Tensor to_source(const at::Tensor& rays, const at::Tensor& distance, const F
 // direction of each source-frame point (N, 3): |X · (d / |X|) − c|, (N).
 at::Tensor distance_from_centre(const at::Tensor& points, const at::Tensor& distance,
                                 const Frame& f) {
-  return map_points<1>(points, distance, distance, [&f](const auto* x, auto d, auto* out) {
+  return map_points<1>(points, distance, [&f](const auto* x, auto d, auto* out) {
     using T = std::remove_const_t<std::remove_reference_t<decltype(*x)>>;
     const T along = d / std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
     T squared = 0;
