@@ -99,7 +99,11 @@ void run_train(const TrainOptions& options) {
       resume ? model::load_omnipoint_model(resumed.model, resumed.model_metadata)
              : train::build_model(config);
   // RANK, WORLD_SIZE, ... from a launcher (docs/TRAINING.md); a single process without them.
-  const train::DistributedContext distributed = train::DistributedContext::from_environment();
+  // NCCL between GPUs where the config trains on them, Gloo otherwise.
+  train::DistributedOptions distributed_options;
+  distributed_options.cuda = config.device == "cuda";
+  const train::DistributedContext distributed =
+      train::DistributedContext::from_environment(distributed_options);
   train::Trainer trainer(config, network, distributed);
   if (resume) trainer.restore(resumed);
   const bool writer = distributed.is_main();  // only rank 0 writes logs and files

@@ -1,6 +1,7 @@
 // The training loop on a tiny network and synthetic data: config errors, schedules, stage 3
 // freezing, EMA, non-finite step handling, and the exact resume through the CLI.
 #include <ATen/ATen.h>
+#include <ATen/Context.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -102,6 +103,14 @@ TEST(TrainConfig, RejectsBadConfigsClearly) {
   config = tiny_config("x");
   config["loss"]["point_loss"] = "entangled";
   EXPECT_THROW(TrainConfig::from_json(config), std::invalid_argument);
+  config = tiny_config("x");
+  config["device"] = "gpu";
+  try {
+    TrainConfig::from_json(config);
+    FAIL() << "device \"gpu\" accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("device"), std::string::npos) << e.what();
+  }
 }
 
 TEST(BatchSource, BatchesAreAFunctionOfSeedStepAndRank) {
@@ -403,6 +412,45 @@ TEST(Trainer, EvaluatesTheEmaWeights) {
   EXPECT_EQ(scores_of(trainer.ema()), scores);
   EXPECT_NE(scores_of(live).at("loss"), scores.at("loss"));
   EXPECT_TRUE(std::isfinite(scores.at("loss")));
+}
+
+// "device": "cuda" where this LibTorch has none: one clear error before any work.
+TEST(Trainer, CudaWithoutCudaIsOneClearError) {
+  if (at::hasCUDA()) GTEST_SKIP() << "this build has CUDA";
+  json json_config = tiny_config("x");
+  json_config["device"] = "cuda";
+  const TrainConfig config = TrainConfig::from_json(json_config);
+  try {
+    Trainer trainer(config, tiny_model(config));
+    FAIL() << "a CUDA trainer was made without CUDA";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "training: device \"cuda\": this build has no CUDA (LibTorch without CUDA, or no "
+              "GPU visible); use \"cpu\"");
+  }
+}
+
+// On a GPU the same steps from the same weights and batches give the losses the CPU gives
+// (within float rounding: the kernels differ), and the evaluation runs; the checkpoint state
+// comes back to the CPU.
+TEST(Trainer, CudaTrainsLikeTheCpu) {
+  if (!at::hasCUDA()) GTEST_SKIP() << "no CUDA in this build";
+  json json_config = tiny_config("x");
+  json_config["eval_batches"] = 1;
+  const TrainConfig cpu_config = TrainConfig::from_json(json_config);
+  json_config["device"] = "cuda";
+  const TrainConfig cuda_config = TrainConfig::from_json(json_config);
+  Trainer on_cpu(cpu_config, tiny_model(cpu_config));
+  Trainer on_cuda(cuda_config, tiny_model(cuda_config));
+  for (int step = 0; step < 3; ++step) {
+    const StepRecord cpu = on_cpu.train_step(), cuda = on_cuda.train_step();
+    ASSERT_TRUE(std::isfinite(cuda.loss)) << "step " << step;
+    EXPECT_NEAR(cuda.loss, cpu.loss, 1e-3 * std::abs(cpu.loss) + 1e-5) << "step " << step;
+  }
+  const auto cpu_scores = on_cpu.evaluate(), cuda_scores = on_cuda.evaluate();
+  EXPECT_NEAR(cuda_scores.at("loss"), cpu_scores.at("loss"),
+              1e-2 * std::abs(cpu_scores.at("loss")));
+  for (const auto& [name, tensor] : on_cuda.state().ema) EXPECT_TRUE(tensor.is_cpu()) << name;
 }
 
 TEST(Trainer, StageTwoTrainsWithP2AAndA2P) {

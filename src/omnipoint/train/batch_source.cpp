@@ -126,6 +126,20 @@ double BatchSource::bucket_weight(const Bucket& bucket, bool conditions) const {
   return weight;
 }
 
+TrainingBatch to_device(const TrainingBatch& batch, at::Device device) {
+  const auto moved = [&](const at::Tensor& t) { return t.defined() ? t.to(device) : t; };
+  TrainingBatch out = batch;
+  out.image = moved(batch.image);
+  out.condition_rays = moved(batch.condition_rays);
+  out.condition_sparse_depth = moved(batch.condition_sparse_depth);
+  out.targets.rays = moved(batch.targets.rays);
+  out.targets.distance = moved(batch.targets.distance);
+  out.targets.mask = moved(batch.targets.mask);
+  out.targets.mask_negative = moved(batch.targets.mask_negative);
+  out.targets.metric = moved(batch.targets.metric);
+  return out;
+}
+
 TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
                                  uint64_t stream, int64_t bucket_index) const {
   // The step's bucket: drawn by weight (one draw per step, the same on every rank), or given.

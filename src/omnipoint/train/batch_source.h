@@ -29,6 +29,7 @@
 // Then, in every stage when enabled: photometric augmentation of the image, and a mirror
 // image (image, labels and the rays' x mirrored together) for half of the items.
 #include <ATen/core/Tensor.h>
+#include <c10/core/Device.h>
 
 #include <cstdint>
 #include <string>
@@ -47,6 +48,9 @@ struct TrainingBatch {
   LossTargets targets;
   int64_t num_tokens = 0;  // token budget of this step (the same on every rank)
 };
+
+// The batch's tensors on `device` (undefined ones stay undefined).
+TrainingBatch to_device(const TrainingBatch& batch, at::Device device);
 
 class BatchSource {
  public:

@@ -144,9 +144,9 @@ TrainConfig TrainConfig::from_text(const std::string& text, const std::string& s
 TrainConfig TrainConfig::from_json(const json& root) {
   if (!root.is_object()) fail("file", "expected a JSON object");
   check_keys(root,
-             {"output_dir", "seed", "threads", "precision", "model", "init", "data", "conditions",
-              "augment", "loss", "optimizer", "ema", "stages", "checkpoint_every", "log_every",
-              "eval_every", "eval_batches", "max_nonfinite_steps"},
+             {"output_dir", "seed", "threads", "precision", "device", "model", "init", "data",
+              "conditions", "augment", "loss", "optimizer", "ema", "stages", "checkpoint_every",
+              "log_every", "eval_every", "eval_batches", "max_nonfinite_steps"},
              "config");
   TrainConfig c;
   c.output_dir = value_or<std::string>(root, "output_dir", c.output_dir, "config");
@@ -159,6 +159,8 @@ TrainConfig TrainConfig::from_json(const json& root) {
   } catch (const std::invalid_argument& e) {
     fail("precision", e.what());
   }
+  c.device = value_or<std::string>(root, "device", c.device, "config");
+  require(c.device == "cpu" || c.device == "cuda", "device", "must be \"cpu\" or \"cuda\"");
   if (root.contains("model")) c.model = object_at(root, "model", "config");
 
   const json& init = object_at(root, "init", "config");

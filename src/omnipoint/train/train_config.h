@@ -4,6 +4,8 @@
 //   "output_dir": "runs/small",            checkpoints, log.jsonl
 //   "seed": 0, "threads": 1,                threads 1 + a seed = deterministic, resumable bit-exactly
 //   "precision": "fp32",                    "bf16": the forward under autocast (model/precision.h)
+//   "device": "cpu",                        "cuda": the model, its optimiser state and the
+//                                           losses on GPU LOCAL_RANK (batches are made on the CPU)
 //   "model": {OmniPointConfig JSON},        the network (init "scratch" and "dinov2"); with init
 //                                           "omnipoint" only "conditioning" (ablations) and
 //                                           "num_tokens_range" (the default token budget)
@@ -93,6 +95,7 @@ struct TrainConfig {
   uint64_t seed = 0;
   int threads = 1;
   model::Precision precision = model::Precision::kFloat32;
+  std::string device = "cpu";  // "cpu" | "cuda"
 
   nlohmann::json model;  // OmniPointConfig JSON
   std::string init_from = "scratch";

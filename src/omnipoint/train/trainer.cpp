@@ -2,6 +2,7 @@
 
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
+#include <ATen/Context.h>
 #include <torch/nn/utils/clip_grad.h>
 #include <torch/optim/adamw.h>
 
@@ -87,9 +88,24 @@ model::OmniPointModel build_model(const TrainConfig& config) {
 Trainer::Trainer(TrainConfig config, model::OmniPointModel network)
     : Trainer(std::move(config), std::move(network), kOneProcess) {}
 
+namespace {
+
+// "cuda" is the GPU of the process's LOCAL_RANK (one process per GPU, docs/TRAINING.md).
+at::Device training_device(const std::string& name, int local_rank) {
+  if (name == "cpu") return at::kCPU;
+  if (!at::hasCUDA())
+    throw std::invalid_argument("training: device \"" + name +
+                                "\": this build has no CUDA (LibTorch without CUDA, or no GPU "
+                                "visible); use \"cpu\"");
+  return {at::kCUDA, static_cast<c10::DeviceIndex>(local_rank)};
+}
+
+}  // namespace
+
 Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
                  const DistributedContext& distributed)
     : config_(std::move(config)),
+      device_(training_device(config_.device, distributed.local_rank())),
       model_(std::move(network)),
       distributed_(distributed),
       rank_(distributed.rank()),
@@ -97,6 +113,7 @@ Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
       source_(config_) {
   if (config_.stages.empty()) throw std::invalid_argument("training: the config has no stages");
   at::set_num_threads(config_.threads);
+  model_->to(device_);
   distributed_.broadcast_module(*model_);
   at::NoGradGuard no_grad;
   for (const auto& [name, tensor] : model::state_dict(*model_)) ema_[name] = tensor.clone();
@@ -191,7 +208,8 @@ StepRecord Trainer::train_step() {
     clock = now;
   };
   const bool conditions = stage.stage >= 2;
-  const TrainingBatch batch = source_.batch(step_, conditions, rank_, world_size_);
+  const TrainingBatch batch =
+      to_device(source_.batch(step_, conditions, rank_, world_size_), device_);
   record.images = batch.image.size(0) * world_size_;
   record.num_tokens = batch.num_tokens;
   record.width = batch.image.size(3);
@@ -276,11 +294,13 @@ std::map<std::string, double> Trainer::evaluate() {
   std::map<std::string, double> sums, counts;
   for (int64_t b = 0; b < config_.eval_batches; ++b) {
     // Batch b from bucket b (modulo their number), so that every aspect ratio is scored.
+    // Scored on the CPU (eval/metrics.h), the network and the losses on the device.
     const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream, b);
-    const model::OmniPointOutput output = forward(batch, conditions);
+    const TrainingBatch on_device = to_device(batch, device_);
+    const model::OmniPointOutput output = forward(on_device, conditions);
     at::Generator generator =
         at::make_generator<at::CPUGeneratorImpl>(derived_seed(config_.seed, kEvalStream, b));
-    const Losses losses = compute_losses(output, batch.targets, config_.loss, generator);
+    const Losses losses = compute_losses(output, on_device.targets, config_.loss, generator);
     sums["loss"] += losses.total.item<double>();
     for (const auto& [name, term] : losses.terms) sums[name] += term.mean().item<double>();
     // The benchmark's scores (eval/metrics.h) on the same items: scale-invariant points and

@@ -99,6 +99,7 @@ class Trainer {
   LossConfig stage_loss(int index) const;
 
   TrainConfig config_;
+  at::Device device_;  // the config's device: the model, its EMA and optimiser state, the losses
   model::OmniPointModel model_;
   const DistributedContext& distributed_;
   int64_t rank_, world_size_;
