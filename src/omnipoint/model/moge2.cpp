@@ -171,6 +171,10 @@ at::Tensor resize_to_image(const at::Tensor& map, const at::Tensor& image) {
                             .align_corners(false));
 }
 
+at::Tensor resize_to_image_channels_last(const at::Tensor& map, const at::Tensor& image) {
+  return resize_to_image(map, image).permute({0, 2, 3, 1}).contiguous();
+}
+
 torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims) {
   torch::nn::Sequential mlp;
   for (size_t i = 0; i + 1 < dims.size(); ++i) {
@@ -271,13 +275,12 @@ MoGe2Output MoGe2ModelImpl::forward(const at::Tensor& image, int64_t num_tokens)
       forward_raw(image, token_grid(image.size(2), image.size(3), num_tokens));
 
   // Resize the raw maps first, remap after.
-  const auto to_image_size = [&](const at::Tensor& map) { return resize_to_image(map, image); };
   MoGe2Output output;
   output.points =
-      remap_points(to_image_size(raw.points).permute({0, 2, 3, 1}), config_.remap_output);
-  if (raw.mask.defined()) output.mask = at::sigmoid(to_image_size(raw.mask).squeeze(1));
+      remap_points(resize_to_image_channels_last(raw.points, image), config_.remap_output);
+  if (raw.mask.defined()) output.mask = at::sigmoid(resize_to_image(raw.mask, image).squeeze(1));
   if (raw.normal.defined()) {
-    const at::Tensor normal = to_image_size(raw.normal).permute({0, 2, 3, 1});
+    const at::Tensor normal = resize_to_image_channels_last(raw.normal, image);
     output.normal = normal / at::linalg_vector_norm(normal, 2, {-1}, true).clamp_min(1e-12);
   }
   if (raw.log_scale.defined()) output.metric_scale = at::exp(raw.log_scale);

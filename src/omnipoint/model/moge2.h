@@ -75,6 +75,10 @@ std::vector<at::Tensor> neck_inputs(const at::Tensor& features, const TokenGrid&
 // false, no antialias), before any activation: interpolating exp(z) is not exp(interpolated
 // z); in the image's precision, so under autocast (precision.h) what follows is not 16-bit;
 at::Tensor resize_to_image(const at::Tensor& map, const at::Tensor& image);
+// the same as a contiguous (B,H,W,C) map, for the per-pixel vectors (points, rays, normals)
+// the geometry after the network reads: a reduction over the last dimension of the permuted
+// view (a ray's norm) took ~40x as long at 12 MP;
+at::Tensor resize_to_image_channels_last(const at::Tensor& map, const at::Tensor& image);
 // the scale head: Linear layers over `dims` with a ReLU between consecutive ones;
 torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims);
 // its (B) log scale from the (B,C) class token, in full precision (autocast off): the one

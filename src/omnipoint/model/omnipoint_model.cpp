@@ -33,7 +33,7 @@ void check_inputs(const OmniPointInputs& inputs) {
 // (B,C,h,w) head output at the image size, channels last.
 at::Tensor head_map(ConvStack& head, const std::vector<at::Tensor>& neck_levels,
                     const at::Tensor& image) {
-  return resize_to_image(head->forward(neck_levels).back(), image).permute({0, 2, 3, 1});
+  return resize_to_image_channels_last(head->forward(neck_levels).back(), image);
 }
 
 at::Tensor unit_length(const at::Tensor& vectors) {
