@@ -103,8 +103,9 @@ void add_info_command(CLI::App& parent) {
 void add_fit_command(CLI::App& parent) {
   auto* command =
       parent.add_subcommand("fit",
-                            "Fit a camera of a chosen model to a ray map (H x W x 3 .npy, zero "
-                            "rays are invalid) and print it as JSON with its COLMAP spec");
+                            "Fit a camera of a chosen model (or auto) to a ray map (H x W x 3 "
+                            ".npy, zero rays are invalid) and print it as JSON with its COLMAP "
+                            "spec and angular residual");
   auto rays_path = std::make_shared<std::string>();
   auto model = std::make_shared<std::string>();
   command
@@ -112,7 +113,9 @@ void add_fit_command(CLI::App& parent) {
                    "Ray map .npy (H x W x 3), e.g. from `camera rays` or a prediction")
       ->required();
   command
-      ->add_option("--model", *model, "Camera model to fit, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE")
+      ->add_option("--model", *model,
+                   "Camera model to fit, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE, or auto (the "
+                   "simplest that explains the rays, as predict --fit-model auto)")
       ->required();
   command->callback([rays_path, model] {
     const auto rays = io::read_npy(*rays_path);
@@ -120,9 +123,15 @@ void add_fit_command(CLI::App& parent) {
       throw std::invalid_argument(*rays_path + ": expected a floating-point H x W x 3 ray map");
     }
     const auto valid = camera::length(rays.to(at::kDouble)) > 0.5;
-    const auto fitted = camera::fit_camera(*model, rays.size(1), rays.size(0), rays, valid);
-    auto info = nlohmann::json::parse(fitted.to_json());
-    info["spec"] = fitted.to_spec();
+    const int64_t width = rays.size(1), height = rays.size(0);
+    const camera::CameraFit fitted =
+        *model == "auto" ? camera::fit_camera_auto(width, height, rays, valid)
+                         : camera::fit_camera_model(*model, width, height, rays, valid);
+    auto info = nlohmann::json::parse(fitted.camera.to_json());
+    info["spec"] = fitted.camera.to_spec();
+    info["fit_residual_deg"] = {{"median", fitted.residual.median_deg},
+                                {"mean", fitted.residual.mean_deg},
+                                {"max", fitted.residual.max_deg}};
     std::cout << info.dump(2) << "\n";
   });
 }

@@ -118,6 +118,21 @@ TEST_F(CameraCli, FitRecoversTheCameraOfARayMap) {
   // The ray map is float32: parameters to about float precision.
   for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 2e-3);
   for (std::size_t i = 4; i < 8; ++i) EXPECT_NEAR(fitted.params()[i], truth.params()[i], 1e-4);
+  // Exact rays: the residual is tiny, and stated.
+  const auto residual = nlohmann::json::parse(result.out)["fit_residual_deg"];
+  EXPECT_LT(residual["max"].get<double>(), 0.01);
+  EXPECT_LE(residual["median"].get<double>(), residual["max"].get<double>());
+  // "auto" picks the simplest model that explains them, as predict --fit-model auto does: a
+  // pinhole's rays give a PINHOLE.
+  ASSERT_EQ(
+      run("camera rays --camera 'PINHOLE 96 72 80 81 48.5 35.5' --out " + path("pinhole_rays.npy"))
+          .status,
+      0);
+  const auto automatic = run("camera fit --rays " + path("pinhole_rays.npy") + " --model auto");
+  ASSERT_EQ(automatic.status, 0) << automatic.err;
+  const auto chosen = parse_camera(nlohmann::json::parse(automatic.out)["spec"].get<std::string>());
+  EXPECT_EQ(chosen.model_name(), "PINHOLE");
+  EXPECT_NEAR(chosen.params()[0], 80, 1e-2);
   expect_failure("camera fit --rays " + path("rays.npy") + " --model NOPE", "unknown camera model");
   expect_failure("camera fit --rays " + path("missing.npy") + " --model OPENCV", "missing.npy");
 }
