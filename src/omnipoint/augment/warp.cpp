@@ -26,6 +26,31 @@ at::Tensor rotation_from_angles(double yaw_deg, double pitch_deg, double roll_de
   return ry.matmul(rx).matmul(rz);
 }
 
+namespace {
+
+// The bilinear cell of a position (x, y) in [0, W] x [0, H] (pixel centres at i + 0.5),
+// clamped to the outermost pixel centres: its four pixels (row-major indices, in the order
+// top-left, top-right, bottom-left, bottom-right) and their weights. The one rule of both
+// samplers below.
+template <typename T>
+struct BilinearCell {
+  std::array<int64_t, 4> pixel;
+  std::array<T, 4> weight;
+};
+template <typename T>
+BilinearCell<T> bilinear_cell(T x, T y, int64_t width, int64_t height) {
+  const T gx = std::clamp<T>(x - T(0.5), 0, width - 1);
+  const T gy = std::clamp<T>(y - T(0.5), 0, height - 1);
+  const int64_t c0 = std::min<int64_t>(static_cast<int64_t>(gx), std::max<int64_t>(width - 2, 0));
+  const int64_t r0 = std::min<int64_t>(static_cast<int64_t>(gy), std::max<int64_t>(height - 2, 0));
+  const T fx = std::clamp<T>(gx - c0, 0, 1), fy = std::clamp<T>(gy - r0, 0, 1);
+  const int64_t c1 = std::min(c0 + 1, width - 1), r1 = std::min(r0 + 1, height - 1);
+  return {{r0 * width + c0, r0 * width + c1, r1 * width + c0, r1 * width + c1},
+          {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}};
+}
+
+}  // namespace
+
 SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& valid,
                                 const at::Tensor& pixels, double tolerance) {
   if (!distance.defined() || distance.dim() != 2 || !valid.defined() ||
@@ -45,8 +70,6 @@ SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& va
   at::Tensor value = at::empty(lead, map.options());
   at::Tensor ok = at::empty(lead, labelled.options());
   const int64_t count = value.numel();
-  const int64_t last_col = std::max<int64_t>(width - 2, 0),
-                last_row = std::max<int64_t>(height - 2, 0);
   AT_DISPATCH_FLOATING_TYPES(map.scalar_type(), "sample_distance", [&] {
     const scalar_t* d = map.data_ptr<scalar_t>();
     const bool* v = labelled.data_ptr<bool>();
@@ -59,27 +82,19 @@ SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& va
         out[i] = 0;
         out_ok[i] = false;
         if (!(x >= 0 && x <= width && y >= 0 && y <= height)) continue;  // NaN fails too
-        const scalar_t gx = std::clamp<scalar_t>(x - scalar_t(0.5), 0, width - 1);
-        const scalar_t gy = std::clamp<scalar_t>(y - scalar_t(0.5), 0, height - 1);
-        const int64_t c0 = std::min<int64_t>(static_cast<int64_t>(gx), last_col);
-        const int64_t r0 = std::min<int64_t>(static_cast<int64_t>(gy), last_row);
-        const scalar_t fx = std::clamp<scalar_t>(gx - c0, 0, 1),
-                       fy = std::clamp<scalar_t>(gy - r0, 0, 1);
-        const int64_t c1 = std::min(c0 + 1, width - 1), r1 = std::min(r0 + 1, height - 1);
-        const std::array<int64_t, 4> corner = {r0 * width + c0, r0 * width + c1, r1 * width + c0,
-                                               r1 * width + c1};
+        const BilinearCell<scalar_t> cell = bilinear_cell(x, y, width, height);
         // Corners with zero weight still take part in the agreement test: a sample next to
         // an edge is not trusted either way.
         scalar_t low = std::numeric_limits<scalar_t>::infinity(), high = 0;
         bool usable = true;
-        for (const int64_t k : corner) {
+        for (const int64_t k : cell.pixel) {
           usable = usable && v[k] && std::isfinite(d[k]) && d[k] > 0;
           low = std::min(low, d[k]);
           high = std::max(high, d[k]);
         }
         if (!usable || !(high <= low * (1 + static_cast<scalar_t>(tolerance)))) continue;
-        out[i] = (1 - fx) * (1 - fy) * d[corner[0]] + fx * (1 - fy) * d[corner[1]] +
-                 (1 - fx) * fy * d[corner[2]] + fx * fy * d[corner[3]];
+        out[i] = cell.weight[0] * d[cell.pixel[0]] + cell.weight[1] * d[cell.pixel[1]] +
+                 cell.weight[2] * d[cell.pixel[2]] + cell.weight[3] * d[cell.pixel[3]];
         out_ok[i] = true;
       }
     });
@@ -109,23 +124,18 @@ at::Tensor sample_image(const at::Tensor& image, const at::Tensor& pixels) {
     scalar_t* o = out.data_ptr<scalar_t>();
     at::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) {
-        // Border padding: the sample position clamps to the outermost pixel centres; NaN
-        // samples the first pixel, as std::clamp leaves NaN and the cast below sees 0.
-        scalar_t gx = std::clamp<scalar_t>(xy[2 * i] - scalar_t(0.5), 0, width - 1);
-        scalar_t gy = std::clamp<scalar_t>(xy[2 * i + 1] - scalar_t(0.5), 0, height - 1);
-        if (std::isnan(gx)) gx = 0;
-        if (std::isnan(gy)) gy = 0;
-        const int64_t c0 = static_cast<int64_t>(gx), r0 = static_cast<int64_t>(gy);
-        const int64_t c1 = std::min(c0 + 1, width - 1), r1 = std::min(r0 + 1, height - 1);
-        const scalar_t fx = gx - c0, fy = gy - r0;
-        const scalar_t w00 = (1 - fx) * (1 - fy), w01 = fx * (1 - fy), w10 = (1 - fx) * fy,
-                       w11 = fx * fy;
-        const scalar_t* p00 = c + (r0 * width + c0) * channels;
-        const scalar_t* p01 = c + (r0 * width + c1) * channels;
-        const scalar_t* p10 = c + (r1 * width + c0) * channels;
-        const scalar_t* p11 = c + (r1 * width + c1) * channels;
+        // Border padding: every position clamps to the outermost pixel centres; NaN samples
+        // the first pixel (a NaN would survive the clamp).
+        const scalar_t x = std::isnan(xy[2 * i]) ? 0 : xy[2 * i];
+        const scalar_t y = std::isnan(xy[2 * i + 1]) ? 0 : xy[2 * i + 1];
+        const BilinearCell<scalar_t> cell = bilinear_cell(x, y, width, height);
+        const scalar_t* p00 = c + cell.pixel[0] * channels;
+        const scalar_t* p01 = c + cell.pixel[1] * channels;
+        const scalar_t* p10 = c + cell.pixel[2] * channels;
+        const scalar_t* p11 = c + cell.pixel[3] * channels;
         for (int64_t k = 0; k < channels; ++k)
-          o[i * channels + k] = w00 * p00[k] + w01 * p01[k] + w10 * p10[k] + w11 * p11[k];
+          o[i * channels + k] = cell.weight[0] * p00[k] + cell.weight[1] * p01[k] +
+                                cell.weight[2] * p10[k] + cell.weight[3] * p11[k];
       }
     });
   });

@@ -258,14 +258,16 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
     // computing what only it needs. Queued roughly longest first, so that the last to finish
     // is a short one.
     std::vector<std::function<void()>> jobs;
-    const auto produce = [&](const char* file, auto write) {
-      if (!wanted(file)) return;
+    const auto add_job = [&](const char* file, auto write) {
       jobs.push_back([&, file, write] {
         const auto file_start = std::chrono::steady_clock::now();
         write((staging / file).string());
         const double ms = ms_since(file_start);
         record([&] { file_ms[file] = ms; });
       });
+    };
+    const auto produce = [&](const char* file, auto write) {
+      if (wanted(file)) add_job(file, write);
     };
     // The valid points, shared by the PLY, the GLB, the preview and the world PLY: made by
     // whichever of them starts first.
@@ -303,12 +305,9 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
       const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
       json["camera_from_world"] =
           std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
-      jobs.push_back([&] {
-        const auto world_start = std::chrono::steady_clock::now();
-        io::write_ply((staging / "points_world.ply").string(),
-                      world_points(cloud().points, options.camera_from_world), cloud().colors);
-        const double ms = ms_since(world_start);
-        record([&] { file_ms["points_world.ply"] = ms; });
+      add_job("points_world.ply", [&](const std::string& path) {
+        io::write_ply(path, world_points(cloud().points, options.camera_from_world),
+                      cloud().colors);
       });
     }
     produce("points.glb", [&](const std::string& path) {
