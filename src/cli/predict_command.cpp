@@ -25,6 +25,7 @@
 #include "cli/view_server.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/geometry/points.h"
+#include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
@@ -60,6 +61,7 @@ struct PredictCommandOptions {
   std::string device = "cpu";
   std::string precision = "auto";
   bool view = false;
+  bool cached_writes = false;
   int threads = 0;  // 0: every core
 };
 
@@ -360,9 +362,15 @@ void add_predict_command(CLI::App& app) {
   command->add_flag("--view", options->view,
                     "When every image is written, show OUT in the browser as `omnipoint view OUT` "
                     "does (Ctrl-C stops)");
+  command->add_flag("--cached-writes", options->cached_writes,
+                    "Write files over 4 MiB through the page cache, not with direct I/O: better "
+                    "for a single large prediction on a slow disk (SD card, eMMC, network "
+                    "file system)");
   add_threads_option(command, &options->threads);
   command->callback([options] {
     use_threads(options->threads);
+    io::set_large_file_writes(options->cached_writes ? io::LargeFileWrites::page_cache
+                                                     : io::LargeFileWrites::direct);
     run_predict(*options);
   });
 }

@@ -178,3 +178,14 @@ TEST(Points, PointCloudFromPointMap) {
   EXPECT_THROW(valid_points(make_point_cloud(points.unsqueeze(0), image.unsqueeze(0))),
                std::invalid_argument);
 }
+
+TEST(Points, ValidPointsOfAWhollyValidCloudKeepsEveryPointInOrder) {
+  const auto points = at::rand({4, 5, 3}) + 1;
+  const auto image = at::rand({4, 5, 3});
+  const auto cloud = make_point_cloud(points, image);
+  const auto kept = valid_points(cloud);
+  EXPECT_TRUE(at::equal(kept.points, points.reshape({20, 3})));
+  EXPECT_TRUE(at::equal(kept.colors, cloud.colors));
+  ASSERT_EQ(kept.valid.size(0), 20);
+  EXPECT_TRUE(kept.valid.all().item<bool>());
+}

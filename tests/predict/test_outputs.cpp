@@ -290,6 +290,32 @@ TEST(PredictOutputs, ConcurrentWritingMatchesOneThread) {
   EXPECT_EQ(two, one);
 }
 
+// Files over the writer's 4 MiB buffer go out with O_DIRECT by default (io/atomic_file.h):
+// byte for byte what the page cache writes.
+TEST(PredictOutputs, DirectWritesMatchCachedWrites) {
+  const data::synth::SynthSample synth = render("PINHOLE 1024 768 800 800 512 384");
+  Prediction p = prediction_from_geometry(synth.rays, synth.sample.distance, synth.sample.mask);
+  OutputOptions options;
+  options.files = parse_output_list("all");
+  const fs::path root = fresh_dir("direct");
+  for (const auto mode : {io::LargeFileWrites::direct, io::LargeFileWrites::page_cache}) {
+    io::set_large_file_writes(mode);
+    write_prediction_outputs(
+        (root / (mode == io::LargeFileWrites::direct ? "direct" : "cached")).string(),
+        synth.sample.image, p, options);
+  }
+  io::set_large_file_writes(io::LargeFileWrites::direct);
+  const std::set<std::string> files = files_in(root / "direct");
+  ASSERT_EQ(files_in(root / "cached"), files);
+  EXPECT_GT(fs::file_size(root / "direct" / "points.npy"), std::uintmax_t{4} << 20);
+  for (const std::string& file : files) {
+    if (file == "camera.json") continue;
+    EXPECT_TRUE(io::read_file((root / "direct" / file).string()) ==
+                io::read_file((root / "cached" / file).string()))
+        << file;
+  }
+}
+
 // A file that fails while others are being written: its error comes out, and nothing of the
 // folder is left (a non-finite point inside the mask cannot go into mesh.glb).
 TEST(PredictOutputs, AFailingFileLeavesNoFolderOnTwoThreads) {

@@ -188,6 +188,8 @@ PointCloud valid_points(const PointCloud& cloud) {
     throw std::invalid_argument(
         "valid_points: expected an unbatched cloud of (N, 3) points with (N) validity");
   }
+  // Every point valid (a scene without sky): no index list and no copies.
+  if (cloud.valid.all().item<bool>()) return cloud;
   const at::Tensor keep = cloud.valid.nonzero().squeeze(1);
   return {cloud.points.index_select(0, keep),
           cloud.colors.defined() ? cloud.colors.index_select(0, keep) : at::Tensor(),
