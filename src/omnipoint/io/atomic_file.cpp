@@ -50,19 +50,18 @@ class FileWriter : public std::streambuf {
 
   WrittenFile finish() {
     const std::size_t tail = static_cast<std::size_t>(pptr() - pbase());
-    if (direct_) {
-      const std::size_t padded = (tail + kAlignment - 1) / kAlignment * kAlignment;
-      std::memset(buffer_.get() + tail, 0, padded - tail);
-      write_out(padded);
-      if (::ftruncate(fd_, static_cast<off_t>(written_ - (padded - tail))) != 0) {
-        fail(path_, "cannot set the file's length", errno);
-      }
-      written_ -= padded - tail;
-    } else {
+    if (!direct_) {
       write_out(tail);
+      return {written_, used_direct_};
     }
-    setp(buffer_.get(), buffer_.get() + kBufferBytes);
-    return {written_, used_direct_};
+    const std::uint64_t length = written_ + tail;
+    const std::size_t padded = (tail + kAlignment - 1) / kAlignment * kAlignment;
+    std::memset(buffer_.get() + tail, 0, padded - tail);
+    write_out(padded);
+    if (::ftruncate(fd_, static_cast<off_t>(length)) != 0) {
+      fail(path_, "cannot set the file's length", errno);
+    }
+    return {length, used_direct_};
   }
 
  protected:
@@ -89,10 +88,8 @@ class FileWriter : public std::streambuf {
 
  private:
   void flush_full_buffer() {
-    if (!tried_direct_) {
-      tried_direct_ = true;
-      if (large_writes.load() == LargeFileWrites::direct) set_direct(true);
-    }
+    // The first full buffer decides: the file is larger than one buffer.
+    if (written_ == 0 && large_writes.load() == LargeFileWrites::direct) set_direct(true);
     write_out(kBufferBytes);
     setp(buffer_.get(), buffer_.get() + kBufferBytes);
   }
@@ -129,7 +126,6 @@ class FileWriter : public std::streambuf {
   std::string path_;
   std::unique_ptr<char, decltype(&std::free)> buffer_;
   std::uint64_t written_ = 0;
-  bool tried_direct_ = false;
   bool direct_ = false;
   bool used_direct_ = false;
 };
