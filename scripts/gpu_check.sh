@@ -2,12 +2,13 @@
 # The GPU check of docs/TRAINING.md ("On a GPU"), for a machine with an NVIDIA GPU, PyTorch
 # (whose LibTorch the build uses), CMake, ninja and a compiler, but no OpenCV, no Debian
 # packages and no network. Here first: scripts/gpu_pack.sh. There, in the checkout with .gpu/:
-#   scripts/gpu_check.sh OUT_DIR [all|tests|train] [TRAIN_SECONDS]
-# (all, the default, is tests then train; where one command may run only 10 minutes, run
-# tests, then train on the same machine: the second call's build is then a no-op.)
-# 1. Builds build/ (incrementally) against PyTorch's LibTorch, without OpenCV: no image
-#    files, so the training renders its scenes on the machine's cores as it goes.
-# 2. Runs the CUDA tests, then the suites that need no image files.
+#   scripts/gpu_check.sh OUT_DIR [all|tests|train|cuda] [TRAIN_SECONDS]
+# all (the default) is tests then train; cuda is the CUDA tests then train, building only
+# the tool and those tests' executables: the shortest whole check, for a short lease.
+# 1. Builds build/ (incrementally, going on past errors so one log lists them all) against
+#    PyTorch's LibTorch, without OpenCV (no image files, so the training renders its scenes
+#    on the machine's cores as it goes) and without the viewer (no npm there).
+# 2. Runs the CUDA tests, then (all, tests) the suites that need no image files.
 # 3. Trains examples/train/gpu/omnipoint_gpu.json, the bundled model's recipe with a wider
 #    network and 32 images a step, for about TRAIN_SECONDS (default 240): a 20-step probe
 #    measures the pace, and the stage-2 steps are set so that the whole schedule (its decay
@@ -19,14 +20,17 @@
 # Environment: PYTHON (python3: with PyTorch unless TORCH_PREFIX is given, and numpy),
 # TORCH_PREFIX (default: PyTorch's cmake_prefix_path), GPU_CHECK_DEVICE (cuda;
 # cpu rehearses the script on a machine without a GPU), GPU_CHECK_CMAKE_ARGS (extra, split
-# on spaces).
+# on spaces), GPU_CHECK_DEADLINE (seconds from the start by which the script must be done:
+# the training is shortened to fit, whatever the build took).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-usage="usage: scripts/gpu_check.sh OUT_DIR [all|tests|train] [TRAIN_SECONDS]"
+usage="usage: scripts/gpu_check.sh OUT_DIR [all|tests|train|cuda] [TRAIN_SECONDS]"
 out=${1:?$usage}
 parts=${2:-all}
 train_seconds=${3:-240}
-[[ $parts =~ ^(all|tests|train)$ && $train_seconds =~ ^[1-9][0-9]*$ ]] ||
+deadline=${GPU_CHECK_DEADLINE:-0}
+[[ $parts =~ ^(all|tests|train|cuda)$ && $train_seconds =~ ^[1-9][0-9]*$ &&
+   $deadline =~ ^[0-9]+$ ]] ||
   { echo "gpu_check: $usage" >&2; exit 2; }
 device=${GPU_CHECK_DEVICE:-cuda}
 python=${PYTHON:-python3}
@@ -58,9 +62,15 @@ build() {
   # shellcheck disable=SC2086  # GPU_CHECK_CMAKE_ARGS is a list of arguments
   TORCH_CUDA_ARCH_LIST=${TORCH_CUDA_ARCH_LIST:-9.0} cmake -S . -B build -G Ninja \
     -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$torch_prefix;$PWD/.gpu/root/usr" \
-    -DOMNIPOINT_WITH_OPENCV=OFF -DOMNIPOINT_BUILD_TESTS=ON -DOMNIPOINT_BUILD_BENCH=OFF \
-    ${GPU_CHECK_CMAKE_ARGS:-} &&
-    cmake --build build -j "$(nproc)"
+    -DOMNIPOINT_WITH_OPENCV=OFF -DOMNIPOINT_WITH_VIEWER=OFF -DOMNIPOINT_BUILD_TESTS=ON \
+    -DOMNIPOINT_BUILD_BENCH=OFF \
+    ${GPU_CHECK_CMAKE_ARGS:-} || return
+  local targets=()
+  case $parts in
+    train) targets=(--target omnipoint_cli) ;;
+    cuda) targets=(--target omnipoint_cli alignment_tests train_tests) ;;
+  esac
+  cmake --build build -j "$(nproc)" "${targets[@]}" -- -k 0
 }
 
 cuda_tests() {
@@ -122,10 +132,17 @@ train() {
   pace=$(cat "$logs/images_per_s" 2> /dev/null || echo 0)
   [[ $pace != 0 ]] || { echo "no pace from the probe"; return 1; }
   echo "probe: $pace images/s"
+  local kill_after=$((train_seconds + 120))
+  if ((deadline > 0)); then  # what is left, less the bring-back and the run's start and end
+    local left=$((deadline - SECONDS - 60))
+    ((left >= 30)) || { echo "no time left to train ($left s)"; return 1; }
+    ((left < train_seconds)) && train_seconds=$left && echo "training for $left s (deadline)"
+    kill_after=$((deadline - SECONDS - 30))
+  fi
   rm -rf runs/gpu_model
   write_config "$pace" runs/gpu_model "$logs/run.json" &&
     cp "$logs/run.json" "$out/" &&
-    timeout --signal=KILL $((train_seconds + 120)) \
+    timeout --signal=KILL "$kill_after" \
       build/src/cli/omnipoint train --config "$logs/run.json"
 }
 
@@ -145,7 +162,7 @@ step machine machine
 if step build build; then
   if [[ $parts != train ]]; then
     step cuda_tests cuda_tests
-    step tests other_tests
+    [[ $parts == cuda ]] || step tests other_tests
   fi
   if [[ $parts != tests ]]; then
     step probe probe && step train train

@@ -30,8 +30,9 @@ score() {  # NAME
   fi
 }
 stage2() { train "$1" && score "$1"; }  # NAME
+lineage() { train "s1_$1" && stage2 "s2_$1"; }  # SUFFIX: a stage 1 and the stage 2 from it
 
-# Two jobs at a time; the stage-1 models first (every stage 2 starts from one of them).
+# Two jobs at a time.
 pool() {  # FUNCTION NAME...
   local fn=$1 failed=0
   shift
@@ -42,6 +43,7 @@ pool() {  # FUNCTION NAME...
   while (( $(jobs -rp | wc -l) > 0 )); do wait -n || failed=1; done
   return $failed
 }
-pool train s1_base_seed0 s1_xyz s1_naive s1_disjoint s1_base_seed1 s1_base_seed2
-pool stage2 s2_base_seed0 s2_no_p2a_no_a2p s2_p2a_only s2_a2p_only s2_no_smoothing \
-  s2_no_state_embeddings s2_xyz s2_naive s2_disjoint s2_base_seed1 s2_base_seed2
+# The base's three seeds first (the spread every variant is read against), then the variants
+# with their own stage 1, then those that fine-tune the base's seed-0 stage-1 model.
+pool lineage base_seed0 base_seed1 base_seed2 xyz naive disjoint
+pool stage2 s2_no_p2a_no_a2p s2_p2a_only s2_a2p_only s2_no_smoothing s2_no_state_embeddings

@@ -10,7 +10,10 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
+#include <type_traits>
+#include <utility>
 
 #include "omnipoint/eval/metrics.h"
 #include "omnipoint/io/safetensors.h"
@@ -34,8 +37,21 @@ bool is_mask_head(const std::string& name) {
   return name.rfind("mask_head.", 0) == 0;
 }
 
-std::string state_key(const at::Tensor& parameter) {
-  return c10::guts::to_string(parameter.unsafeGetTensorImpl());
+// The optimiser's per-parameter state is keyed by the parameter's TensorImpl: as text of its
+// address in LibTorch 1.13, as the address itself in later versions.
+template <typename Key>
+Key state_key_of(const at::Tensor& parameter) {
+  if constexpr (std::is_same_v<Key, std::string>) {
+    std::ostringstream text;
+    text << parameter.unsafeGetTensorImpl();
+    return text.str();
+  } else {
+    return parameter.unsafeGetTensorImpl();
+  }
+}
+auto state_key(const at::Tensor& parameter) {
+  using Key = std::decay_t<decltype(std::declval<torch::optim::AdamW&>().state())>::key_type;
+  return state_key_of<Key>(parameter);
 }
 
 }  // namespace
