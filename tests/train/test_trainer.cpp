@@ -137,6 +137,32 @@ TEST(BatchSource, BatchesAreAFunctionOfSeedStepAndRank) {
   }
 }
 
+TEST(BatchSource, ThreadsTakeWholeItemsAndTheBatchIsTheSame) {
+  // A batch of 5 with P2A and photometric augmentation on: with 2 threads each thread makes
+  // whole items, and the batch equals the one made on one thread bit for bit.
+  json json_config = tiny_config("x");
+  json_config["data"]["batch_size"] = 5;
+  json_config["augment"] = {{"p2a", true}, {"p2a_probability", 0.5}, {"photometric", true}};
+  const BatchSource source(TrainConfig::from_json(json_config));
+  const int threads = at::get_num_threads();
+  at::set_num_threads(1);
+  const TrainingBatch one = source.batch(7, true);
+  at::set_num_threads(2);
+  const TrainingBatch two = source.batch(7, true);
+  at::set_num_threads(threads);
+  EXPECT_TRUE(at::equal(one.image, two.image));
+  EXPECT_TRUE(at::equal(one.condition_rays, two.condition_rays));
+  EXPECT_TRUE(at::equal(one.condition_sparse_depth, two.condition_sparse_depth));
+  EXPECT_TRUE(at::equal(one.targets.rays, two.targets.rays));
+  EXPECT_TRUE(at::equal(one.targets.distance, two.targets.distance));
+  EXPECT_TRUE(at::equal(one.targets.mask, two.targets.mask));
+  EXPECT_TRUE(at::equal(one.targets.mask_negative, two.targets.mask_negative));
+  EXPECT_TRUE(at::equal(one.targets.metric, two.targets.metric));
+  EXPECT_EQ(one.num_tokens, two.num_tokens);
+  // The items differ from each other (each drew its own scene).
+  EXPECT_FALSE(at::equal(one.image[0], one.image[1]));
+}
+
 // One camera for every item, augmentations as given.
 json single_camera_config(const std::string& spec, const json& augment) {
   json config = tiny_config("x");

@@ -1,6 +1,7 @@
 #include "omnipoint/geometry/sparse_depth.h"
 
 #include <ATen/ATen.h>
+#include <c10/core/GradMode.h>
 
 #include <algorithm>
 #include <cmath>
@@ -54,7 +55,7 @@ std::pair<at::Tensor, at::Tensor> disc_offsets(std::int64_t radius, const at::De
 SplattedDepth splat_sparse_depth(const at::Tensor& sparse, const at::Tensor& valid,
                                  const SplatOptions& options) {
   check_inputs(sparse, valid, options);
-  at::NoGradGuard no_grad;
+  c10::NoGradGuard no_grad;
   const auto shape = sparse.sizes().vec();
   const std::int64_t height = shape[shape.size() - 2];
   const std::int64_t width = shape[shape.size() - 1];

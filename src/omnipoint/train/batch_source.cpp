@@ -169,8 +169,11 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
   const double total_weight = bucket_weight(*bucket, conditions);
 
   const int64_t batch_size = config_.batch_size, width = bucket->width, height = bucket->height;
-  std::vector<at::Tensor> images, rays, distances, masks, negatives, metric, cond_rays, cond_depth;
-  for (int64_t k = 0; k < batch_size; ++k) {
+  struct Item {
+    at::Tensor image, rays, distance, mask, negative, metric, condition_rays, condition_depth;
+  };
+  const auto make_item = [&](int64_t k) {
+    Item item;
     const uint64_t index = static_cast<uint64_t>((step * world_size + rank) * batch_size + k);
     data::synth::Random random(derived_seed(config_.seed, stream, index), 0);
 
@@ -231,38 +234,56 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
       ray_map.valid = ray_map.valid.flip({1}).contiguous();
     }
     const at::Tensor camera_valid = ray_map.valid;
-    images.push_back(sample.image.permute({2, 0, 1}));
-    rays.push_back(ray_map.rays);
-    distances.push_back(sample.distance);
-    masks.push_back(sample.mask);
-    negatives.push_back(sky_known ? camera_valid & ~sample.mask : at::zeros_like(sample.mask));
-    metric.push_back(at::full({}, sample.metric, at::kBool));
+    item.image = sample.image.permute({2, 0, 1});
+    item.rays = ray_map.rays;
+    item.distance = sample.distance;
+    item.mask = sample.mask;
+    item.negative = sky_known ? camera_valid & ~sample.mask : at::zeros_like(sample.mask);
+    item.metric = at::full({}, sample.metric, at::kBool);
 
     // Conditions (paper: each enabled with probability 0.9 from stage 2; sparse depth sampled
     // from the GT at 0.05–0.1 % of the pixels).
     // (An A2P item's "GT" is its pseudo-label.)
     const bool with_rays = conditions && random.chance(config_.condition_probability);
     const bool with_depth = conditions && random.chance(config_.condition_probability);
-    cond_rays.push_back(with_rays ? ray_map.rays.permute({2, 0, 1})
-                                  : at::zeros({3, height, width}));
+    item.condition_rays =
+        with_rays ? ray_map.rays.permute({2, 0, 1}) : at::zeros({3, height, width});
     if (with_depth) {
       const double ratio = random.uniform(config_.sparse_ratio[0], config_.sparse_ratio[1]);
       at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(random.next_u64());
-      cond_depth.push_back(
-          geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth);
+      item.condition_depth =
+          geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth;
     } else {
-      cond_depth.push_back(at::zeros({height, width}));
+      item.condition_depth = at::zeros({height, width});
     }
+    return item;
+  };
+  // Each item is a pure function of its index, so threads take whole items (their ops then
+  // run single-threaded inside) and the batch does not depend on the thread count. A2P's
+  // teacher runs a network per item: those batches stay on the calling thread.
+  std::vector<Item> items(static_cast<size_t>(batch_size));
+  if (config_.a2p) {
+    for (int64_t k = 0; k < batch_size; ++k) items[k] = make_item(k);
+  } else {
+    at::parallel_for(0, batch_size, 1, [&](int64_t begin, int64_t end) {
+      for (int64_t k = begin; k < end; ++k) items[k] = make_item(k);
+    });
   }
+  const auto stacked = [&](at::Tensor Item::*field) {
+    std::vector<at::Tensor> parts;
+    parts.reserve(items.size());
+    for (const Item& item : items) parts.push_back(item.*field);
+    return at::stack(parts);
+  };
   TrainingBatch batch;
-  batch.image = at::stack(images).contiguous();
-  batch.condition_rays = at::stack(cond_rays).contiguous();
-  batch.condition_sparse_depth = at::stack(cond_depth).contiguous();
-  batch.targets.rays = at::stack(rays);
-  batch.targets.distance = at::stack(distances);
-  batch.targets.mask = at::stack(masks);
-  batch.targets.mask_negative = at::stack(negatives);
-  batch.targets.metric = at::stack(metric);
+  batch.image = stacked(&Item::image).contiguous();
+  batch.condition_rays = stacked(&Item::condition_rays).contiguous();
+  batch.condition_sparse_depth = stacked(&Item::condition_depth).contiguous();
+  batch.targets.rays = stacked(&Item::rays);
+  batch.targets.distance = stacked(&Item::distance);
+  batch.targets.mask = stacked(&Item::mask);
+  batch.targets.mask_negative = stacked(&Item::negative);
+  batch.targets.metric = stacked(&Item::metric);
   data::synth::Random tokens(
       derived_seed(config_.seed, stream ^ kTokenStream, static_cast<uint64_t>(step)), 0);
   batch.num_tokens = tokens.integer(static_cast<int>(config_.num_tokens[0]),

@@ -5,12 +5,13 @@
 #include <torch/csrc/distributed/c10d/ProcessGroup.hpp>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
 
-#ifndef USE_C10D_GLOO
-#error \
-    "OmniPoint needs LibTorch built with c10d Gloo (USE_C10D_GLOO) and the gloo headers (Debian: libgloo-dev)"
-#endif
+// Each process group needs LibTorch built with it and its headers (found by CMake).
+#if defined(USE_C10D_GLOO) && defined(OMNIPOINT_HAVE_GLOO_HEADERS)
+#define OMNIPOINT_GLOO
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
-#ifdef USE_C10D_NCCL
+#endif
+#if defined(USE_C10D_NCCL) && defined(OMNIPOINT_HAVE_NCCL_HEADERS)
+#define OMNIPOINT_NCCL
 #include <torch/csrc/distributed/c10d/ProcessGroupNCCL.hpp>
 #endif
 
@@ -37,9 +38,11 @@ int parse_env_int(const std::string& name, const std::string& text, int low, int
   return static_cast<int>(value);
 }
 
+#ifdef OMNIPOINT_GLOO
 bool is_loopback(const std::string& address) {
   return address == "localhost" || address.rfind("127.", 0) == 0 || address == "::1";
 }
+#endif
 
 // Runs `collective` on each bucket of `tensors`: flatten, collective, copy back.
 template <class Collective>
@@ -134,13 +137,19 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
                                 ": expected 0 <= rank < world size");
   if (options.bucket_bytes <= 0)
     throw std::invalid_argument("distributed: bucket_bytes must be positive");
-#ifndef USE_C10D_NCCL
+  if (!active()) return;
+#ifndef OMNIPOINT_NCCL
   if (options.cuda)
     throw std::invalid_argument(
-        "distributed: CUDA training needs LibTorch built with NCCL (USE_C10D_NCCL); this one has "
-        "Gloo only");
+        "distributed: CUDA training on more than one process needs the NCCL process group, "
+        "which this build left out (LibTorch 2, or no NCCL or nccl.h)");
 #endif
-  if (!active()) return;
+#ifndef OMNIPOINT_GLOO
+  if (!options.cuda)
+    throw std::invalid_argument(
+        "distributed: CPU training on more than one process needs the Gloo process group, "
+        "which this build left out (LibTorch 2, or no Gloo or gloo headers: Debian libgloo-dev)");
+#endif
 
   const std::string master = env.master_addr + ":" + std::to_string(env.master_port);
   group_ = std::make_unique<Group>();
@@ -162,7 +171,7 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
                              " ms: " + error.what());
   }
   try {
-#ifdef USE_C10D_NCCL
+#ifdef OMNIPOINT_NCCL
     if (options.cuda) {
       auto nccl_options = c10d::ProcessGroupNCCL::Options::create();
       nccl_options->timeout = options.timeout;
@@ -171,6 +180,7 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
       return;
     }
 #endif
+#ifdef OMNIPOINT_GLOO
     auto gloo_options = c10d::ProcessGroupGloo::Options::create();
     gloo_options->timeout = options.timeout;
     // GLOO_SOCKET_IFNAME picks the network interface as in PyTorch; a loopback master means
@@ -183,6 +193,7 @@ DistributedContext::DistributedContext(const DistributedEnv& env, DistributedOpt
       gloo_options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
     group_->process_group = c10::make_intrusive<c10d::ProcessGroupGloo>(
         group_->store, env.rank, env.world_size, gloo_options);
+#endif
   } catch (const std::exception& error) {
     throw std::runtime_error("distributed: rank " + std::to_string(env.rank) +
                              " could not join the process group at " + master + ": " +

@@ -134,11 +134,10 @@ at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_point
                                       mrd & mlu & mld};
   const std::vector<at::Tensor> pred = triangles(pred_points), gt = triangles(gt_points);
   at::Tensor loss = at::zeros({pred_points.size(0), height - 1, width - 1}, pred_points.options());
+  // Unlabelled triangles get a fixed non-degenerate pair so that no 0/0 reaches the gradient.
+  const at::Tensor unit = at::tensor({0.0, 0.0, 1.0}, pred_points.options());
   for (size_t k = 0; k < 4; ++k) {
-    // Unlabelled triangles get a fixed non-degenerate pair so that no 0/0 reaches the gradient.
     const at::Tensor m = masks[k].unsqueeze(-1);
-    const at::Tensor unit =
-        at::zeros({3}, pred_points.options()).index_fill_(0, at::tensor({2L}), 1.0);
     const at::Tensor angle = angle_between(at::where(m, pred[k], unit), at::where(m, gt[k], unit));
     loss = loss + masks[k].to(loss.scalar_type()) *
                       (smooth(angle.clamp(min_angle, max_angle), beta) - floor);
