@@ -36,4 +36,8 @@ struct ViewOptions {
 // prediction, and a port that cannot be bound, -> std::invalid_argument / std::runtime_error.
 void serve_predictions(const ViewOptions& options);
 
+// Whether this build has the viewer (OMNIPOINT_WITH_VIEWER); without it serve_predictions
+// throws, so that `predict --view` can refuse before predicting anything.
+bool viewer_available();
+
 }  // namespace omnipoint::cli

@@ -25,6 +25,8 @@ void add_view_command(CLI::App& app) {
   command->callback([] { viewer_unavailable(); });
 }
 
+bool viewer_available() { return false; }
+
 void serve_predictions(const ViewOptions&) { viewer_unavailable(); }
 
 }  // namespace omnipoint::cli
