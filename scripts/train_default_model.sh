@@ -8,8 +8,9 @@
 #    core each) into runs/default_model/ (48,000 images), then continues from its EMA weights
 #    with omnipoint_default_longer.json into runs/default_model_longer/ (84,000 more), then
 #    fine-tunes that with omnipoint_default_finetune.json into runs/default_model_finetune/
-#    (50,400 more) and that with omnipoint_default_finetune2.json into
-#    runs/default_model_finetune2/ (37,600 more); an interrupted run resumes from its last
+#    (50,400 more), that with omnipoint_default_finetune2.json into
+#    runs/default_model_finetune2/ (37,600 more) and that with omnipoint_default_finetune3.json
+#    into runs/default_model_finetune3/ (65,600 more); an interrupted run resumes from its last
 #    checkpoint.
 # 3. Ships the final EMA weights as F16.
 set -euo pipefail
@@ -33,5 +34,6 @@ train "$config" runs/default_model
 train examples/train/default_model/omnipoint_default_longer.json runs/default_model_longer
 train examples/train/default_model/omnipoint_default_finetune.json runs/default_model_finetune
 train examples/train/default_model/omnipoint_default_finetune2.json runs/default_model_finetune2
-/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune2/model_ema.safetensors \
+train examples/train/default_model/omnipoint_default_finetune3.json runs/default_model_finetune3
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune3/model_ema.safetensors \
   models/omnipoint_default.safetensors
