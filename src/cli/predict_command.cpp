@@ -111,8 +111,9 @@ void run_predict(const PredictCommandOptions& options) {
   if (!io::image_io_available())
     throw std::runtime_error("this build has no image file I/O (OpenCV)");
   if (options.view && !viewer_available())
-    throw std::runtime_error("--view: this omnipoint was built without the viewer "
-                             "(OMNIPOINT_WITH_VIEWER=OFF)");
+    throw std::runtime_error(
+        "--view: this omnipoint was built without the viewer "
+        "(OMNIPOINT_WITH_VIEWER=OFF)");
   if (!options.camera.empty() && options.fov_deg > 0)
     throw std::invalid_argument("--camera and --fov: give one of them");
   if (!options.colmap.empty() &&

@@ -255,7 +255,9 @@ void open_in_browser(const std::string& url) {
 
 }  // namespace
 
-bool viewer_available() { return true; }
+bool viewer_available() {
+  return true;
+}
 
 void serve_predictions(const ViewOptions& options) {
   if (!fs::is_directory(options.dir))

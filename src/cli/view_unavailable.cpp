@@ -25,8 +25,12 @@ void add_view_command(CLI::App& app) {
   command->callback([] { viewer_unavailable(); });
 }
 
-bool viewer_available() { return false; }
+bool viewer_available() {
+  return false;
+}
 
-void serve_predictions(const ViewOptions&) { viewer_unavailable(); }
+void serve_predictions(const ViewOptions&) {
+  viewer_unavailable();
+}
 
 }  // namespace omnipoint::cli
