@@ -9,9 +9,12 @@
 #    with omnipoint_default_longer.json into runs/default_model_longer/ (84,000 more), then
 #    fine-tunes that with omnipoint_default_finetune.json into runs/default_model_finetune/
 #    (50,400 more), that with omnipoint_default_finetune2.json into
-#    runs/default_model_finetune2/ (37,600 more) and that with omnipoint_default_finetune3.json
-#    into runs/default_model_finetune3/ (65,600 more); an interrupted run resumes from its last
-#    checkpoint.
+#    runs/default_model_finetune2/ (37,600 more), that with omnipoint_default_finetune3.json
+#    into runs/default_model_finetune3/ (65,600 more) and, from that run's EMA weights stored as
+#    F16 (the file bundled before it), with omnipoint_default_finetune4.json into
+#    runs/default_model_finetune4/ (56,000 more) and, from that one's EMA weights as F16, with
+#    omnipoint_default_finetune5.json into runs/default_model_finetune5/ (48,000 more); an
+#    interrupted run resumes from its last checkpoint.
 # 3. Ships the final EMA weights as F16.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -36,4 +39,10 @@ train examples/train/default_model/omnipoint_default_finetune.json runs/default_
 train examples/train/default_model/omnipoint_default_finetune2.json runs/default_model_finetune2
 train examples/train/default_model/omnipoint_default_finetune3.json runs/default_model_finetune3
 /usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune3/model_ema.safetensors \
+  runs/default_model_finetune3/model_ema_f16.safetensors
+train examples/train/default_model/omnipoint_default_finetune4.json runs/default_model_finetune4
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune4/model_ema.safetensors \
+  runs/default_model_finetune4/model_ema_f16.safetensors
+train examples/train/default_model/omnipoint_default_finetune5.json runs/default_model_finetune5
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune5/model_ema.safetensors \
   models/omnipoint_default.safetensors
