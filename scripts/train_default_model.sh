@@ -13,7 +13,9 @@
 #    into runs/default_model_finetune3/ (65,600 more) and, from that run's EMA weights stored as
 #    F16 (the file bundled before it), with omnipoint_default_finetune4.json into
 #    runs/default_model_finetune4/ (56,000 more) and, from that one's EMA weights as F16, with
-#    omnipoint_default_finetune5.json into runs/default_model_finetune5/ (48,000 more); an
+#    omnipoint_default_finetune5.json into runs/default_model_finetune5/ (48,000 more) and, from
+#    that one's EMA weights as F16 (the file bundled before it), with
+#    omnipoint_default_finetune6.json into runs/default_model_finetune6/ (19,200 more); an
 #    interrupted run resumes from its last checkpoint.
 # 3. Ships the final EMA weights as F16.
 set -euo pipefail
@@ -45,4 +47,7 @@ train examples/train/default_model/omnipoint_default_finetune4.json runs/default
   runs/default_model_finetune4/model_ema_f16.safetensors
 train examples/train/default_model/omnipoint_default_finetune5.json runs/default_model_finetune5
 /usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune5/model_ema.safetensors \
+  runs/default_model_finetune5/model_ema_f16.safetensors
+train examples/train/default_model/omnipoint_default_finetune6.json runs/default_model_finetune6
+/usr/bin/python3 tools/safetensors_to_f16.py runs/default_model_finetune6/model_ema.safetensors \
   models/omnipoint_default.safetensors
