@@ -1,16 +1,15 @@
 #include "cli/threads.h"
 
-#include <ATen/Parallel.h>
-#include <dlfcn.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
-#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -35,20 +34,10 @@ void restart_with_passive_openmp() {
 
 }  // namespace
 
-int thread_count(int requested, unsigned hardware) {
-  if (requested > 0) return requested;
-  return static_cast<int>(std::max(1u, hardware));
-}
-
 void use_threads(int requested) {
-  const int threads = thread_count(requested, std::thread::hardware_concurrency());
+  const int threads = util::thread_count(requested, std::thread::hardware_concurrency());
   if (threads > 1 && std::getenv("OMP_WAIT_POLICY") == nullptr) restart_with_passive_openmp();
-  at::set_num_threads(threads);
-  // libtorch links libopenblas itself (not this executable), so the symbol is found in the
-  // process rather than linked; LibTorch never sets OpenBLAS's count.
-  using SetThreads = void (*)(int);
-  if (void* symbol = dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))
-    reinterpret_cast<SetThreads>(symbol)(threads);
+  util::set_threads(threads);
 }
 
 CLI::Option* add_threads_option(CLI::App* command, int* threads) {

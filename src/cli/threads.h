@@ -1,9 +1,9 @@
 #pragma once
-// How many threads a command computes on, and the one place that sets it: LibTorch's intra-op
-// pool and OpenBLAS's own pool get the same count, so neither runs on one core (LibTorch's
-// default here) nor keeps idle workers beyond it. main() gives every command the machine's
-// cores; `--threads N` (predict, forward, eval, synth) overrides; `train` uses its config's
-// "threads" per rank (default 1: each rank of `--nproc 2` gets one).
+// How many threads a command computes on. main() gives every command the machine's cores;
+// `--threads N` (predict, forward, eval, synth) overrides; `train` uses its config's "threads"
+// per rank (default 1: each rank of `--nproc 2` gets one). The pools themselves are set in
+// the library's one place (omnipoint/util/threads.h); what the tool adds is the OpenMP wait
+// policy of its own process (threads.cpp: why).
 namespace CLI {
 class App;
 class Option;
@@ -11,14 +11,8 @@ class Option;
 
 namespace omnipoint::cli {
 
-// `requested` when > 0, else `hardware` (the machine's logical cores), at least 1 (0 is what
-// std::thread::hardware_concurrency says when it cannot tell).
-int thread_count(int requested, unsigned hardware);
-
-// Sets both pools to thread_count(requested, std::thread::hardware_concurrency()). OpenBLAS is
-// looked up at run time: a LibTorch built on another BLAS (MKL) has none, and MKL follows
-// at::set_num_threads itself. With more than one thread and no OMP_WAIT_POLICY in the
-// environment, first restarts this program with OMP_WAIT_POLICY=passive (threads.cpp: why).
+// util::set_threads(requested). With more than one thread and no OMP_WAIT_POLICY in the
+// environment, first restarts this program with OMP_WAIT_POLICY=passive.
 void use_threads(int requested);
 
 // `--threads N` (N >= 1) on `command`, stored in *threads; the command's callback then calls

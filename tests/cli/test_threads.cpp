@@ -1,47 +1,16 @@
-// The thread count of the commands (cli/threads.h): the rule, both pools set alike, and
-// `--threads` refusing what is not a positive count with one line.
-#include <ATen/Parallel.h>
-#include <dlfcn.h>
+// The tool's threads (cli/threads.h): its passive OpenMP workers, and `--threads` refusing what
+// is not a positive count with one line (the count rule and the pools: tests/util).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <string>
-#include <thread>
 
 #include "cli/threads.h"
 #include "support/cli_run.h"
 
 namespace omnipoint::cli {
 namespace {
-
-TEST(ThreadCount, DefaultIsEveryCoreAndAGivenCountWins) {
-  EXPECT_EQ(thread_count(0, 8), 8);
-  EXPECT_EQ(thread_count(0, 2), 2);
-  EXPECT_EQ(thread_count(3, 8), 3);
-  EXPECT_EQ(thread_count(16, 2), 16);  // more than the cores, when asked for
-  EXPECT_EQ(thread_count(0, 0), 1);    // the machine cannot tell
-}
-
-// OpenBLAS's own count, where this LibTorch has OpenBLAS (-1 otherwise).
-int openblas_threads() {
-  using GetThreads = int (*)();
-  void* symbol = dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
-  return symbol != nullptr ? reinterpret_cast<GetThreads>(symbol)() : -1;
-}
-
-TEST(ThreadCount, UseThreadsSetsLibTorchAndOpenBlasAlike) {
-  setenv("OMP_WAIT_POLICY", "passive", 0);  // no restart of this test (the tool's is below)
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  for (const int requested : {1, 0, 3}) {
-    use_threads(requested);
-    const int expected = requested > 0 ? requested : cores;
-    EXPECT_EQ(at::get_num_threads(), expected) << requested;
-    if (openblas_threads() != -1) {
-      EXPECT_EQ(openblas_threads(), expected) << requested;
-    }
-  }
-}
 
 // libgomp's own report of what it read: the tool restarted itself with passive OpenMP workers
 // (a spin count of 0), unless the caller chose a policy.

@@ -2,7 +2,6 @@
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +13,7 @@
 
 #include "omnipoint/augment/warp.h"
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::augment {
 namespace {
@@ -67,7 +67,7 @@ at::Tensor fill_holes(at::Tensor& zdistance, const at::Tensor& hit, const at::Te
     const bool* on_domain = usable.data_ptr<bool>();
     bool* out = filled.data_ptr<bool>();
     // Holes are written, hits are read: a filled value never feeds another pixel's fill.
-    at::parallel_for(
+    util::parallel_for(
         0, height, std::max<int64_t>(1, 16384 / width), [&](int64_t begin, int64_t end) {
           for (int64_t row = begin; row < end; ++row) {
             for (int64_t col = 0; col < width; ++col) {
@@ -117,7 +117,7 @@ at::Tensor map_points(const at::Tensor& points, const at::Tensor& scalars, const
     const scalar_t* x = in.data_ptr<scalar_t>();
     const scalar_t* f = factor.data_ptr<scalar_t>();
     scalar_t* o = out.data_ptr<scalar_t>();
-    at::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) map(x + 3 * i, f[i], o + kOutputs * i);
     });
   });

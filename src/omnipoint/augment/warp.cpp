@@ -1,8 +1,8 @@
 #include "omnipoint/augment/warp.h"
+#include "omnipoint/util/threads.h"
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <array>
@@ -76,7 +76,7 @@ SampledDistance sample_distance(const at::Tensor& distance, const at::Tensor& va
     const scalar_t* xy = p.data_ptr<scalar_t>();
     scalar_t* out = value.data_ptr<scalar_t>();
     bool* out_ok = ok.data_ptr<bool>();
-    at::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) {
         const scalar_t x = xy[2 * i], y = xy[2 * i + 1];
         out[i] = 0;
@@ -122,7 +122,7 @@ at::Tensor sample_image(const at::Tensor& image, const at::Tensor& pixels) {
     const scalar_t* c = colours.data_ptr<scalar_t>();
     const scalar_t* xy = p.data_ptr<scalar_t>();
     scalar_t* o = out.data_ptr<scalar_t>();
-    at::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, count, 16384, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) {
         // Border padding: every position clamps to the outermost pixel centres; NaN samples
         // the first pixel (a NaN would survive the clamp).

@@ -1,8 +1,8 @@
 #include "omnipoint/geometry/colormap.h"
+#include "omnipoint/util/threads.h"
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <cmath>
@@ -59,7 +59,7 @@ at::Tensor apply_colormap(const at::Tensor& values, double low, double high, Col
     const scalar_t* in = v.data_ptr<scalar_t>();
     const bool* shown = keep.defined() ? keep.data_ptr<bool>() : nullptr;
     scalar_t* out = rgb.data_ptr<scalar_t>();
-    at::parallel_for(0, v.numel(), 16384, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, v.numel(), 16384, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) {
         if (!std::isfinite(in[i]) || (shown != nullptr && !shown[i])) {
           out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0;

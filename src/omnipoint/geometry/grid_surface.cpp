@@ -1,8 +1,8 @@
 #include "omnipoint/geometry/grid_surface.h"
+#include "omnipoint/util/threads.h"
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <cmath>
@@ -37,24 +37,25 @@ at::Tensor depth_edge_mask(const at::Tensor& distance, const at::Tensor& mask, d
     const auto tolerance = static_cast<scalar_t>(rtol);
     // The extremes of each valid pixel's 3x3 neighbourhood of valid pixels (the map's border
     // clips it), rows in parallel.
-    at::parallel_for(0, rows, std::max<int64_t>(1, 16384 / width), [&](int64_t begin, int64_t end) {
-      for (int64_t row = begin; row < end; ++row) {
-        const int64_t y = row % height;
-        for (int64_t x = 0; x < width; ++x) {
-          const int64_t i = row * width + x;
-          if (!ok[i]) continue;
-          scalar_t low = value[i], high = value[i];
-          for (int64_t dy = y > 0 ? -1 : 0; dy <= (y + 1 < height ? 1 : 0); ++dy)
-            for (int64_t dx = x > 0 ? -1 : 0; dx <= (x + 1 < width ? 1 : 0); ++dx) {
-              const int64_t j = i + dy * width + dx;
-              if (!ok[j]) continue;
-              low = std::min(low, value[j]);
-              high = std::max(high, value[j]);
+    util::parallel_for(
+        0, rows, std::max<int64_t>(1, 16384 / width), [&](int64_t begin, int64_t end) {
+          for (int64_t row = begin; row < end; ++row) {
+            const int64_t y = row % height;
+            for (int64_t x = 0; x < width; ++x) {
+              const int64_t i = row * width + x;
+              if (!ok[i]) continue;
+              scalar_t low = value[i], high = value[i];
+              for (int64_t dy = y > 0 ? -1 : 0; dy <= (y + 1 < height ? 1 : 0); ++dy)
+                for (int64_t dx = x > 0 ? -1 : 0; dx <= (x + 1 < width ? 1 : 0); ++dx) {
+                  const int64_t j = i + dy * width + dx;
+                  if (!ok[j]) continue;
+                  low = std::min(low, value[j]);
+                  high = std::max(high, value[j]);
+                }
+              edge[i] = high - low > tolerance * value[i];
             }
-          edge[i] = high - low > tolerance * value[i];
-        }
-      }
-    });
+          }
+        });
   });
   return edges.to(distance.device());
 }

@@ -2,7 +2,6 @@
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <array>
@@ -11,6 +10,7 @@
 #include <string>
 
 #include "omnipoint/camera/camera_model.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::geometry {
 namespace {
@@ -86,7 +86,7 @@ Normals normals_from_point_map(const at::Tensor& points, const at::Tensor& valid
     const bool* given_ok = given.defined() ? given.data_ptr<bool>() : nullptr;
     bool* use = usable.data_ptr<bool>();
     const int64_t grain = std::max<int64_t>(1, 16384 / std::max<int64_t>(width, 1));
-    at::parallel_for(0, rows * width, grain * width, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, rows * width, grain * width, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i)
         use[i] = (given_ok == nullptr || given_ok[i]) && std::isfinite(in[3 * i]) &&
                  std::isfinite(in[3 * i + 1]) && std::isfinite(in[3 * i + 2]);
@@ -100,7 +100,7 @@ Normals normals_from_point_map(const at::Tensor& points, const at::Tensor& valid
     const auto norm = [](const Vec& v) {
       return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     };
-    at::parallel_for(0, rows, grain, [&](int64_t row_begin, int64_t row_end) {
+    util::parallel_for(0, rows, grain, [&](int64_t row_begin, int64_t row_end) {
       for (int64_t row = row_begin; row < row_end; ++row) {
         const int64_t y = row % height;
         for (int64_t x = 0; x < width; ++x) {

@@ -1,4 +1,5 @@
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/util/threads.h"
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
@@ -265,7 +266,7 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
     const int64_t bands =
         std::clamp<int64_t>(at::get_num_threads() / std::max<int64_t>(batch, 1), 1, height);
     const int64_t band_rows = (height + bands - 1) / bands;
-    at::parallel_for(0, batch * bands, 1, [&](int64_t first, int64_t last) {
+    util::parallel_for(0, batch * bands, 1, [&](int64_t first, int64_t last) {
       for (int64_t task = first; task < last; ++task) {
         const int64_t item = task / bands, band = task % bands;
         const auto top = static_cast<scalar_t>(band * band_rows);

@@ -2,7 +2,6 @@
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
-#include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <atomic>
@@ -22,6 +21,7 @@
 #include <ostream>
 
 #include "omnipoint/io/atomic_file.h"
+#include "omnipoint/util/threads.h"
 #endif
 
 namespace omnipoint::io {
@@ -125,7 +125,7 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
     return channels >= 3 && c < 3 ? i - c + (2 - c) : i;
   };
   const auto fill = [&](auto* out, const auto& code) {
-    at::parallel_for(0, count, 65536, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, count, 65536, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) out[target(i)] = code(i);
     });
   };

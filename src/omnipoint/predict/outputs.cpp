@@ -31,6 +31,7 @@
 #include "omnipoint/io/ply.h"
 #include "omnipoint/predict/colmap_scene.h"
 #include "omnipoint/predict/preview.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::predict {
 
@@ -170,7 +171,7 @@ void write_concurrently(const std::vector<std::function<void()>>& jobs) {
   if (threads <= 1)
     work();
   else
-    at::parallel_for(0, threads, 1, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, threads, 1, [&](int64_t begin, int64_t end) {
       for (int64_t thread = begin; thread < end; ++thread) work();
     });
   if (failure) std::rethrow_exception(failure);

@@ -19,6 +19,7 @@
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/teacher.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::train {
 namespace {
@@ -265,7 +266,7 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
   if (config_.a2p) {
     for (int64_t k = 0; k < batch_size; ++k) items[k] = make_item(k);
   } else {
-    at::parallel_for(0, batch_size, 1, [&](int64_t begin, int64_t end) {
+    util::parallel_for(0, batch_size, 1, [&](int64_t begin, int64_t end) {
       for (int64_t k = begin; k < end; ++k) items[k] = make_item(k);
     });
   }

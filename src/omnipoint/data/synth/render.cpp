@@ -1,7 +1,6 @@
 #include "omnipoint/data/synth/render.h"
 
 #include <ATen/ATen.h>
-#include <ATen/Parallel.h>
 
 #include <cmath>
 #include <stdexcept>
@@ -9,6 +8,7 @@
 
 #include "omnipoint/data/synth/intersect.h"
 #include "omnipoint/data/synth/texture.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::data::synth {
 namespace {
@@ -225,7 +225,7 @@ Render render_scene(const Scene& scene, const at::Tensor& rays, const at::Tensor
   if (rays.is_cuda())
     work(0, tiles_x * tiles_y);
   else
-    at::parallel_for(0, tiles_x * tiles_y, 1, work);
+    util::parallel_for(0, tiles_x * tiles_y, 1, work);
 
   // Display encoding: clamp and a square-root gamma (an exact IEEE operation).
   const auto encoded = at::floor(at::sqrt(rgb.clamp(0, 1)) * 255 + 0.5).to(at::kByte);

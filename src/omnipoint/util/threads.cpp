@@ -1,0 +1,45 @@
+#include "omnipoint/util/threads.h"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <mutex>
+#include <thread>
+
+namespace omnipoint::util {
+namespace {
+
+std::once_flag default_threads_once;
+std::atomic<bool> threads_chosen{false};
+
+void set_pools(int threads) {
+  at::set_num_threads(threads);
+  // LibTorch links libopenblas itself (not the program), so the symbol is found in the
+  // process rather than linked; LibTorch never sets OpenBLAS's count.
+  using SetThreads = void (*)(int);
+  if (void* symbol = dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))
+    reinterpret_cast<SetThreads>(symbol)(threads);
+}
+
+}  // namespace
+
+int thread_count(int requested, unsigned hardware) {
+  if (requested > 0) return requested;
+  return static_cast<int>(std::max(1u, hardware));
+}
+
+void set_threads(int requested) {
+  threads_chosen = true;
+  set_pools(thread_count(requested, std::thread::hardware_concurrency()));
+}
+
+void use_default_threads() {
+  std::call_once(default_threads_once, [] {
+    if (threads_chosen || std::getenv("OMP_NUM_THREADS") != nullptr) return;
+    set_pools(thread_count(0, std::thread::hardware_concurrency()));
+  });
+}
+
+}  // namespace omnipoint::util
