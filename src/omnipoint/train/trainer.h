@@ -11,6 +11,8 @@
 // Determinism: with config.threads = 1, everything a step does is a function of the
 // parameters, the optimiser state and the step number (batches: batch_source.h; local-loss
 // anchors: a generator keyed by the step), so restore(checkpoint()) continues bit-exactly.
+// Each step starts making the next step's batch in the background (BatchSource::prefetch)
+// before it computes its own.
 #include <ATen/core/Tensor.h>
 #include <nlohmann/json.hpp>
 
@@ -65,7 +67,7 @@ class Trainer {
  public:
   // `distributed` (kept by reference, must outlive the trainer) selects this process's shard
   // of each global batch and averages the gradients; rank 0's weights are copied to every
-  // rank here.
+  // rank here. Computes on config.threads (util::set_threads).
   Trainer(TrainConfig config, model::OmniPointModel model, const DistributedContext& distributed);
   Trainer(TrainConfig config, model::OmniPointModel model);
   ~Trainer();
@@ -74,6 +76,8 @@ class Trainer {
   int64_t step() const { return step_; }
   const TrainConfig& config() const { return config_; }
   model::OmniPointModel& model() { return model_; }
+  // Where the batches come from (its warnings and skipped-sample counts).
+  BatchSource& batch_source() { return source_; }
   // The EMA of the parameters (and the buffers as they are), by state_dict name.
   const std::map<std::string, at::Tensor>& ema() const { return ema_; }
 
