@@ -43,8 +43,9 @@ struct StepRecord {
   int64_t images = 0;
   int64_t num_tokens = 0;
   int64_t width = 0, height = 0;  // the step's image size (its aspect bucket)
-  // Wall seconds of the step's phases: "data", "forward", "loss" (and "loss.<term>"),
-  // "backward" (with the gradient all-reduce), "optimizer" (with the EMA).
+  // Wall seconds of the step's phases: "data" (what is left of making the batch, which was
+  // prefetched during the previous step), "forward", "loss" (and "loss.<term>"), "backward"
+  // (with the gradient all-reduce), "optimizer" (with the EMA).
   std::map<std::string, double> seconds;
 };
 
