@@ -2,6 +2,7 @@
 
 #include <ATen/ATen.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -42,6 +43,18 @@ Sample resize_sample(const Sample& s, int64_t width, int64_t height) {
   };
   return Sample{s.camera.resized(width, height), image.squeeze(0).permute({1, 2, 0}).contiguous(),
                 nearest(s.distance), nearest(s.mask), s.metric};
+}
+
+Sample fit_sample(const Sample& sample, int64_t width, int64_t height) {
+  const int64_t w = sample.camera.width(), h = sample.camera.height();
+  if (w == width && h == height) return sample;
+  int64_t crop_w = w, crop_h = h;
+  if (w * height > h * width)
+    crop_w = std::max<int64_t>(1, h * width / height);
+  else
+    crop_h = std::max<int64_t>(1, w * height / width);
+  return resize_sample(crop_sample(sample, (w - crop_w) / 2, (h - crop_h) / 2, crop_w, crop_h),
+                       width, height);
 }
 
 }  // namespace omnipoint::data

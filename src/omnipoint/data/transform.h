@@ -15,4 +15,8 @@ Sample crop_sample(const Sample& sample, int64_t x0, int64_t y0, int64_t width, 
 // distance and mask by nearest neighbour (never mixing foreground and background depths).
 Sample resize_sample(const Sample& sample, int64_t width, int64_t height);
 
+// The largest centred window of the sample with the aspect ratio of width x height, resized to
+// it (the sample itself when it has that size).
+Sample fit_sample(const Sample& sample, int64_t width, int64_t height);
+
 }  // namespace omnipoint::data

@@ -1,24 +1,23 @@
 #include "omnipoint/train/batch_source.h"
-#include "omnipoint/io/camera_file.h"
-
-#include <ATen/ATen.h>
-#include <ATen/CPUGeneratorImpl.h>
 
 #include <algorithm>
-#include <filesystem>
+#include <condition_variable>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <optional>
 #include <stdexcept>
+#include <thread>
+#include <utility>
 
-#include "omnipoint/augment/p2a.h"
-#include "omnipoint/augment/virtual_camera.h"
 #include "omnipoint/camera/camera.h"
-#include "omnipoint/camera/camera_info.h"
-#include "omnipoint/data/photometric.h"
+#include "omnipoint/data/dataset.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/data/synth/random.h"
-#include "omnipoint/data/synth/synthesize.h"
+#include "omnipoint/data/synth/synth_dataset.h"
 #include "omnipoint/data/transform.h"
-#include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/teacher.h"
+#include "omnipoint/io/camera_file.h"
 #include "omnipoint/util/threads.h"
 
 namespace omnipoint::train {
@@ -27,48 +26,32 @@ namespace {
 constexpr uint64_t kTokenStream = 0x746f6b656e73ULL;   // separates the per-step token draw
 constexpr uint64_t kBucketStream = 0x6275636b6574ULL;  // and the per-step bucket draw
 
-// The largest centred window of the sample with the target aspect ratio, resized to it.
-data::Sample fit_to_size(const data::Sample& sample, int64_t width, int64_t height) {
-  const int64_t w = sample.camera.width(), h = sample.camera.height();
-  if (w == width && h == height) return sample;
-  int64_t crop_w = w, crop_h = h;
-  if (w * height > h * width)
-    crop_w = std::max<int64_t>(1, h * width / height);
-  else
-    crop_h = std::max<int64_t>(1, w * height / width);
-  const data::Sample cropped =
-      data::crop_sample(sample, (w - crop_w) / 2, (h - crop_h) / 2, crop_w, crop_h);
-  return data::resize_sample(cropped, width, height);
+std::unique_ptr<data::Dataset> open_source(const DatasetSource& source) {
+  if (!source.synth) return data::open_dataset("folders", {source.folders});
+  std::vector<data::synth::SceneKind> scenes;
+  for (const std::string& name : source.synth_source.scenes)
+    scenes.push_back(data::synth::parse_scene_kind(name));
+  std::vector<camera::Camera> cameras;
+  for (const std::string& spec : source.synth_source.cameras) {
+    camera::Camera camera = io::read_camera(spec);
+    if (camera.width() != source.width || camera.height() != source.height)
+      camera = camera.resized(source.width, source.height);
+    cameras.push_back(std::move(camera));
+  }
+  return std::make_unique<data::synth::SynthDataset>(std::move(scenes), std::move(cameras));
 }
 
-// P2A: the sample seen through a random virtual fisheye or panorama of the same size.
-data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
-  const int64_t width = sample.camera.width(), height = sample.camera.height();
-  augment::VirtualCameraDistribution distribution;
-  distribution.fisheye_size = std::max(width, height);
-  distribution.panorama_width = 2 * std::max(width, height);
-  augment::VirtualView view =
-      augment::sample_virtual_view(distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
-  view.camera = view.camera.resized(width, height);
-  const augment::P2AResult rendered =
-      augment::perspective_to_any(sample.camera, sample.image, sample.distance, sample.mask, view);
-  return {rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(),
-          rendered.mask.contiguous(), sample.metric};
+std::string source_name(const DatasetSource& source) {
+  return source.synth ? "synth" : source.folders;
 }
 
-// A2P: the sample's labels replaced by the teacher's, stitched back from one random view.
-// camera_valid: where the sample's camera has rays.
-data::Sample any_to_perspective(const data::Sample& sample, const at::Tensor& camera_valid,
-                                const augment::Teacher& teacher, uint64_t seed) {
-  augment::A2PViewDistribution distribution;
-  distribution.min_size = distribution.max_size =
-      std::max(sample.camera.width(), sample.camera.height());
-  const augment::PerspectiveView view = augment::sample_perspective_view(
-      sample.camera, distribution, at::make_generator<at::CPUGeneratorImpl>(seed));
-  const augment::A2PResult result =
-      augment::any_to_perspective(sample.camera, sample.image, view, teacher, camera_valid);
-  return {sample.camera, sample.image, result.label.distance.to(at::kFloat).contiguous(),
-          result.label.mask.contiguous(), false};
+// `text` with each `name` in it replaced by "<sample>".
+std::string without_name(std::string text, const std::string& name) {
+  const std::string placeholder = "<sample>";
+  for (auto at = text.find(name); !name.empty() && at != std::string::npos;
+       at = text.find(name, at + placeholder.size()))
+    text.replace(at, name.size(), placeholder);
+  return text;
 }
 
 }  // namespace
@@ -77,8 +60,104 @@ uint64_t derived_seed(uint64_t seed, uint64_t stream, uint64_t index) {
   return data::synth::mix64(data::synth::mix64(seed + data::synth::mix64(stream)) + index);
 }
 
-BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
-  namespace fs = std::filesystem;
+bool BatchSource::Request::operator==(const Request& other) const {
+  return step == other.step && conditions == other.conditions && rank == other.rank &&
+         world_size == other.world_size && stream == other.stream && bucket == other.bucket;
+}
+
+struct BatchSource::BadSamples {
+  std::mutex mutex;
+  std::map<std::pair<size_t, data::ItemIndex>, std::string> reasons;  // (source, item) -> reason
+  std::vector<int64_t> per_source;                                    // bad items of each source
+  std::map<std::string, int64_t> skipped;                             // draws by reason
+  std::vector<std::string> warnings;                                  // not taken yet
+};
+
+// One background thread making the prefetched batch; a batch not taken when another is asked
+// for is stopped and dropped.
+class BatchSource::Prefetcher {
+ public:
+  using Make = std::function<TrainingBatch(const Request&, const std::atomic<bool>& stop)>;
+  explicit Prefetcher(Make make) : make_(std::move(make)) {}
+  ~Prefetcher() {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+      if (job_) job_->stop = true;
+    }
+    changed_.notify_all();
+    if (worker_.joinable()) worker_.join();
+  }
+  Prefetcher(const Prefetcher&) = delete;
+  Prefetcher& operator=(const Prefetcher&) = delete;
+
+  void start(const Request& request) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      if (job_ && job_->request == request) return;
+      if (job_) job_->stop = true;
+      job_ = std::make_shared<Job>();
+      job_->request = request;
+      if (!worker_.joinable()) worker_ = std::thread([this] { work(); });
+    }
+    changed_.notify_all();
+  }
+
+  // The batch of `request` when it is the one prefetched (waiting for it; its error is
+  // rethrown here); nothing otherwise.
+  std::optional<TrainingBatch> take(const Request& request) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!job_ || !(job_->request == request)) return std::nullopt;
+    const std::shared_ptr<Job> job = job_;
+    changed_.wait(lock, [&] { return job->finished; });
+    if (job_ == job) job_.reset();
+    if (job->stop) return std::nullopt;  // replaced meanwhile by another thread's prefetch
+    if (job->error) std::rethrow_exception(job->error);
+    return std::move(job->batch);
+  }
+
+ private:
+  struct Job {
+    Request request;
+    std::atomic<bool> stop{false};
+    bool started = false, finished = false;  // under mutex_
+    TrainingBatch batch;
+    std::exception_ptr error;
+  };
+
+  void work() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      changed_.wait(lock, [&] { return stopping_ || (job_ && !job_->started); });
+      if (stopping_) return;
+      const std::shared_ptr<Job> job = job_;
+      job->started = true;
+      lock.unlock();
+      TrainingBatch batch;
+      std::exception_ptr error;
+      try {
+        batch = make_(job->request, job->stop);
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+      job->batch = std::move(batch);
+      job->error = error;
+      job->finished = true;
+      changed_.notify_all();
+    }
+  }
+
+  Make make_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::shared_ptr<Job> job_;  // the latest prefetch, until taken
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+BatchSource::BatchSource(const TrainConfig& config)
+    : config_(config), bad_samples_(std::make_unique<BadSamples>()) {
   for (size_t i = 0; i < config_.datasets.size(); ++i) {
     const DatasetSource& source = config_.datasets[i];
     const auto same_size = [&](const Bucket& b) {
@@ -88,33 +167,32 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
     if (bucket == buckets_.end())
       bucket = buckets_.insert(buckets_.end(), Bucket{source.width, source.height, {}});
     bucket->sources.push_back(i);
-    std::vector<std::string> folders;
-    if (!source.synth) {
-      std::error_code error;
-      if (!fs::is_directory(source.folders, error))
-        throw std::runtime_error("training data \"" + source.folders +
-                                 "\": not a directory of sample folders");
-      // (A ".partial" folder is a sample still being written by `omnipoint synth`.)
-      for (const fs::directory_entry& entry : fs::directory_iterator(source.folders))
-        if (entry.is_directory() && entry.path().extension() != ".partial")
-          folders.push_back(entry.path().string());
-      if (folders.empty())
-        throw std::runtime_error("training data \"" + source.folders +
-                                 "\": holds no sample folders");
-      std::sort(folders.begin(), folders.end());
-    }
-    folders_.push_back(std::move(folders));
+    datasets_.push_back(open_source(source));
   }
+  bad_samples_->per_source.assign(datasets_.size(), 0);
   if (config_.a2p) {
     const int64_t tokens =
         config_.a2p_teacher_tokens > 0 ? config_.a2p_teacher_tokens : config_.num_tokens[1];
     try {
-      teacher_ = infer::teacher(infer::load_network(config_.a2p_teacher), tokens);
+      const augment::Teacher network =
+          infer::teacher(infer::load_network(config_.a2p_teacher), tokens);
+      // One network call at a time: a prefetch and an evaluation batch may both need it.
+      auto mutex = std::make_shared<std::mutex>();
+      teacher_ = [network, mutex](const at::Tensor& image, const camera::Camera& camera) {
+        const std::lock_guard<std::mutex> lock(*mutex);
+        return network(image, camera);
+      };
     } catch (const std::exception& error) {
       throw std::runtime_error("A2P teacher \"" + config_.a2p_teacher + "\": " + error.what());
     }
   }
+  prefetcher_ =
+      std::make_unique<Prefetcher>([this](const Request& request, const std::atomic<bool>& stop) {
+        return make_batch(request, stop);
+      });
 }
+
+BatchSource::~BatchSource() = default;
 
 double BatchSource::source_weight(size_t source, bool conditions) const {
   const DatasetSource& dataset = config_.datasets[source];
@@ -127,39 +205,36 @@ double BatchSource::bucket_weight(const Bucket& bucket, bool conditions) const {
   return weight;
 }
 
-TrainingBatch to_device(const TrainingBatch& batch, at::Device device) {
-  const auto moved = [&](const at::Tensor& t) { return t.defined() ? t.to(device) : t; };
-  TrainingBatch out = batch;
-  out.image = moved(batch.image);
-  out.condition_rays = moved(batch.condition_rays);
-  out.condition_sparse_depth = moved(batch.condition_sparse_depth);
-  out.targets.rays = moved(batch.targets.rays);
-  out.targets.distance = moved(batch.targets.distance);
-  out.targets.mask = moved(batch.targets.mask);
-  out.targets.mask_negative = moved(batch.targets.mask_negative);
-  out.targets.metric = moved(batch.targets.metric);
-  return out;
+std::map<std::string, int64_t> BatchSource::skipped_samples() const {
+  const std::lock_guard<std::mutex> lock(bad_samples_->mutex);
+  return bad_samples_->skipped;
 }
 
-TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
-                                 uint64_t stream, int64_t bucket_index) const {
+std::vector<std::string> BatchSource::take_warnings() {
+  const std::lock_guard<std::mutex> lock(bad_samples_->mutex);
+  return std::exchange(bad_samples_->warnings, {});
+}
+
+const BatchSource::Bucket& BatchSource::step_bucket(const Request& request) const {
   // The step's bucket: drawn by weight (one draw per step, the same on every rank), or given.
   const Bucket* bucket = nullptr;
-  if (bucket_index >= 0) {
+  if (request.bucket >= 0) {
     for (size_t i = 0; i < buckets_.size() && !bucket; ++i) {
-      const Bucket& candidate = buckets_[(static_cast<size_t>(bucket_index) + i) % buckets_.size()];
-      if (bucket_weight(candidate, conditions) > 0) bucket = &candidate;
+      const Bucket& candidate =
+          buckets_[(static_cast<size_t>(request.bucket) + i) % buckets_.size()];
+      if (bucket_weight(candidate, request.conditions) > 0) bucket = &candidate;
     }
   } else if (buckets_.size() == 1) {
     bucket = &buckets_.front();
   } else {
     double total = 0;
-    for (const Bucket& b : buckets_) total += bucket_weight(b, conditions);
-    data::synth::Random draw(
-        derived_seed(config_.seed, stream ^ kBucketStream, static_cast<uint64_t>(step)), 0);
+    for (const Bucket& b : buckets_) total += bucket_weight(b, request.conditions);
+    data::synth::Random draw(derived_seed(config_.seed, request.stream ^ kBucketStream,
+                                          static_cast<uint64_t>(request.step)),
+                             0);
     double pick = draw.uniform() * total;
     for (const Bucket& b : buckets_) {
-      const double weight = bucket_weight(b, conditions);
+      const double weight = bucket_weight(b, request.conditions);
       if (weight <= 0) continue;
       bucket = &b;
       if (pick < weight) break;
@@ -167,129 +242,102 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
     }
   }
   if (!bucket) throw std::logic_error("training data: no source can be used in this stage");
-  const double total_weight = bucket_weight(*bucket, conditions);
+  return *bucket;
+}
 
-  const int64_t batch_size = config_.batch_size, width = bucket->width, height = bucket->height;
-  struct Item {
-    at::Tensor image, rays, distance, mask, negative, metric, condition_rays, condition_depth;
+data::Sample BatchSource::draw_sample(size_t source, data::synth::Random& random) const {
+  const data::Dataset& dataset = *datasets_[source];
+  BadSamples& bad = *bad_samples_;
+  const auto give_up_when_none_left = [&] {  // under bad.mutex
+    if (bad.per_source[source] == dataset.size())
+      throw std::runtime_error("training data \"" + source_name(config_.datasets[source]) +
+                               "\": no usable sample (all " + std::to_string(dataset.size()) +
+                               " are bad; see the warnings)");
   };
-  const auto make_item = [&](int64_t k) {
-    Item item;
-    const uint64_t index = static_cast<uint64_t>((step * world_size + rank) * batch_size + k);
-    data::synth::Random random(derived_seed(config_.seed, stream, index), 0);
+  for (;;) {
+    // A bad sample met before is skipped unread: the draws are the same either way, so what
+    // an item gets does not depend on what other items or threads met first.
+    const data::ItemIndex index = dataset.draw(random);
+    {
+      const std::lock_guard<std::mutex> lock(bad.mutex);
+      const auto known = bad.reasons.find({source, index});
+      if (known != bad.reasons.end()) {
+        ++bad.skipped[known->second];
+        give_up_when_none_left();
+        continue;
+      }
+    }
+    try {
+      return dataset.item(index);
+    } catch (const data::SampleError& error) {
+      const std::lock_guard<std::mutex> lock(bad.mutex);
+      const std::string reason = without_name(error.what(), dataset.item_name(index));
+      if (bad.reasons.emplace(std::pair{source, index}, reason).second) {
+        ++bad.per_source[source];
+        bad.warnings.push_back(std::string("bad sample skipped, another drawn in its place: ") +
+                               error.what());
+      }
+      ++bad.skipped[reason];
+      give_up_when_none_left();
+    }
+  }
+}
 
+TrainingBatch BatchSource::make_batch(const Request& request, const std::atomic<bool>& stop) const {
+  const Bucket& bucket = step_bucket(request);
+  const double total_weight = bucket_weight(bucket, request.conditions);
+  const int64_t batch_size = config_.batch_size;
+  const auto make_item = [&](int64_t k) {
+    const uint64_t index =
+        static_cast<uint64_t>((request.step * request.world_size + request.rank) * batch_size + k);
+    data::synth::Random random(derived_seed(config_.seed, request.stream, index), 0);
     // The data source, by weight, among the bucket's usable ones.
     double pick = random.uniform() * total_weight;
     size_t source = 0;
-    for (const size_t candidate : bucket->sources) {
-      const double weight = source_weight(candidate, conditions);
+    for (const size_t candidate : bucket.sources) {
+      const double weight = source_weight(candidate, request.conditions);
       if (weight <= 0) continue;
       source = candidate;  // the last usable one, should rounding leave pick >= the total
       if (pick < weight) break;
       pick -= weight;
     }
-    const DatasetSource& dataset = config_.datasets[source];
-
-    const data::Sample loaded = [&] {
-      if (dataset.synth) {
-        const SynthSource& synth = dataset.synth_source;
-        const auto kind = data::synth::parse_scene_kind(
-            synth.scenes[random.integer(0, static_cast<int>(synth.scenes.size()) - 1)]);
-        camera::Camera camera = io::read_camera(
-            synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)]);
-        if (camera.width() != width || camera.height() != height)
-          camera = camera.resized(width, height);
-        return data::synth::synthesize(kind, random.next_u64(), camera).sample;
-      }
-      const std::vector<std::string>& folders = folders_[source];
-      return fit_to_size(
-          data::read_sample(folders[random.integer(0, static_cast<int>(folders.size()) - 1)]),
-          width, height);
-    }();
-    // The augmentations draw only when enabled, so a config without them sees the same items.
-    data::Sample sample = loaded;
-    camera::Rays ray_map = loaded.camera.ray_map(at::kFloat);
-    const camera::CameraClass lens = camera::camera_class(loaded.camera);
-    bool sky_known = true;
-    if (conditions && config_.p2a && lens == camera::CameraClass::kPerspective &&
-        random.chance(config_.p2a_probability)) {
-      sample = perspective_to_any(loaded, random.next_u64());
-      ray_map = sample.camera.ray_map(at::kFloat);
-      sky_known = false;
-    } else if (conditions && config_.a2p &&
-               (!dataset.labelled || (lens != camera::CameraClass::kPerspective &&
-                                      random.chance(config_.a2p_probability)))) {
-      sample = any_to_perspective(loaded, ray_map.valid, teacher_, random.next_u64());
-      sky_known = false;
-    }
-    if (config_.photometric)
-      sample.image =
-          data::photometric_augment(sample.image, data::PhotometricOptions{}, random.next_u64());
-    if (config_.flip && random.chance(0.5)) {
-      // The mirror image of the scene through the mirrored camera: columns reversed, and the
-      // rays' x negated, so that points = distance · ray stay the mirror image's geometry.
-      sample.image = sample.image.flip({1}).contiguous();
-      sample.distance = sample.distance.flip({1}).contiguous();
-      sample.mask = sample.mask.flip({1}).contiguous();
-      ray_map.rays = (ray_map.rays.flip({1}) * at::tensor({-1.0F, 1.0F, 1.0F})).contiguous();
-      ray_map.valid = ray_map.valid.flip({1}).contiguous();
-    }
-    const at::Tensor camera_valid = ray_map.valid;
-    item.image = sample.image.permute({2, 0, 1});
-    item.rays = ray_map.rays;
-    item.distance = sample.distance;
-    item.mask = sample.mask;
-    item.negative = sky_known ? camera_valid & ~sample.mask : at::zeros_like(sample.mask);
-    item.metric = at::full({}, sample.metric, at::kBool);
-
-    // Conditions (paper: each enabled with probability 0.9 from stage 2; sparse depth sampled
-    // from the GT at 0.05–0.1 % of the pixels).
-    // (An A2P item's "GT" is its pseudo-label.)
-    const bool with_rays = conditions && random.chance(config_.condition_probability);
-    const bool with_depth = conditions && random.chance(config_.condition_probability);
-    item.condition_rays =
-        with_rays ? ray_map.rays.permute({2, 0, 1}) : at::zeros({3, height, width});
-    if (with_depth) {
-      const double ratio = random.uniform(config_.sparse_ratio[0], config_.sparse_ratio[1]);
-      at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(random.next_u64());
-      item.condition_depth =
-          geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth;
-    } else {
-      item.condition_depth = at::zeros({height, width});
-    }
-    return item;
+    const data::Sample sample =
+        data::fit_sample(draw_sample(source, random), bucket.width, bucket.height);
+    const ItemContext context{&config_, request.conditions, config_.datasets[source].labelled,
+                              &teacher_};
+    return make_training_item(sample, context, random);
   };
   // Each item is a pure function of its index, so threads take whole items (their ops then
   // run single-threaded inside) and the batch does not depend on the thread count. A2P's
   // teacher runs a network per item: those batches stay on the calling thread.
-  std::vector<Item> items(static_cast<size_t>(batch_size));
-  if (config_.a2p) {
-    for (int64_t k = 0; k < batch_size; ++k) items[k] = make_item(k);
-  } else {
-    util::parallel_for(0, batch_size, 1, [&](int64_t begin, int64_t end) {
-      for (int64_t k = begin; k < end; ++k) items[k] = make_item(k);
-    });
-  }
-  const auto stacked = [&](at::Tensor Item::*field) {
-    std::vector<at::Tensor> parts;
-    parts.reserve(items.size());
-    for (const Item& item : items) parts.push_back(item.*field);
-    return at::stack(parts);
+  std::vector<TrainingItem> items(static_cast<size_t>(batch_size));
+  const auto make_items = [&](int64_t begin, int64_t end) {
+    for (int64_t k = begin; k < end && !stop; ++k) items[static_cast<size_t>(k)] = make_item(k);
   };
-  TrainingBatch batch;
-  batch.image = stacked(&Item::image).contiguous();
-  batch.condition_rays = stacked(&Item::condition_rays).contiguous();
-  batch.condition_sparse_depth = stacked(&Item::condition_depth).contiguous();
-  batch.targets.rays = stacked(&Item::rays);
-  batch.targets.distance = stacked(&Item::distance);
-  batch.targets.mask = stacked(&Item::mask);
-  batch.targets.mask_negative = stacked(&Item::negative);
-  batch.targets.metric = stacked(&Item::metric);
-  data::synth::Random tokens(
-      derived_seed(config_.seed, stream ^ kTokenStream, static_cast<uint64_t>(step)), 0);
-  batch.num_tokens = tokens.integer(static_cast<int>(config_.num_tokens[0]),
-                                    static_cast<int>(config_.num_tokens[1]));
-  return batch;
+  if (config_.a2p)
+    make_items(0, batch_size);
+  else
+    util::parallel_for(0, batch_size, 1, make_items);
+  if (stop) return {};
+  data::synth::Random tokens(derived_seed(config_.seed, request.stream ^ kTokenStream,
+                                          static_cast<uint64_t>(request.step)),
+                             0);
+  return collate(items, tokens.integer(static_cast<int>(config_.num_tokens[0]),
+                                       static_cast<int>(config_.num_tokens[1])));
+}
+
+TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
+                                 uint64_t stream, int64_t bucket) const {
+  const Request request{step, conditions, rank, world_size, stream, bucket};
+  if (std::optional<TrainingBatch> prefetched = prefetcher_->take(request))
+    return std::move(*prefetched);
+  static const std::atomic<bool> kGoOn{false};
+  return make_batch(request, kGoOn);
+}
+
+void BatchSource::prefetch(int64_t step, bool conditions, int64_t rank, int64_t world_size,
+                           uint64_t stream, int64_t bucket) const {
+  prefetcher_->start({step, conditions, rank, world_size, stream, bucket});
 }
 
 }  // namespace omnipoint::train

@@ -21,6 +21,7 @@
 #include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
 #include "omnipoint/train/distributed.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::train {
 namespace {
@@ -128,7 +129,7 @@ Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
       world_size_(distributed.world_size()),
       source_(config_) {
   if (config_.stages.empty()) throw std::invalid_argument("training: the config has no stages");
-  at::set_num_threads(config_.threads);
+  util::set_threads(config_.threads);
   model_->to(device_);
   distributed_.broadcast_module(*model_);
   at::NoGradGuard no_grad;
@@ -224,8 +225,11 @@ StepRecord Trainer::train_step() {
     clock = now;
   };
   const bool conditions = stage.stage >= 2;
-  const TrainingBatch batch =
-      to_device(source_.batch(step_, conditions, rank_, world_size_), device_);
+  const TrainingBatch on_cpu = source_.batch(step_, conditions, rank_, world_size_);
+  if (step_ + 1 < config_.total_steps())
+    source_.prefetch(step_ + 1, config_.stages[stage_index(step_ + 1)].stage >= 2, rank_,
+                     world_size_);
+  const TrainingBatch batch = to_device(on_cpu, device_);
   record.images = batch.image.size(0) * world_size_;
   record.num_tokens = batch.num_tokens;
   record.width = batch.image.size(3);

@@ -11,6 +11,8 @@
 // Determinism: with config.threads = 1, everything a step does is a function of the
 // parameters, the optimiser state and the step number (batches: batch_source.h; local-loss
 // anchors: a generator keyed by the step), so restore(checkpoint()) continues bit-exactly.
+// Each step starts making the next step's batch in the background (BatchSource::prefetch)
+// before it computes its own.
 #include <ATen/core/Tensor.h>
 #include <nlohmann/json.hpp>
 
@@ -41,8 +43,9 @@ struct StepRecord {
   int64_t images = 0;
   int64_t num_tokens = 0;
   int64_t width = 0, height = 0;  // the step's image size (its aspect bucket)
-  // Wall seconds of the step's phases: "data", "forward", "loss" (and "loss.<term>"),
-  // "backward" (with the gradient all-reduce), "optimizer" (with the EMA).
+  // Wall seconds of the step's phases: "data" (what is left of making the batch, which was
+  // prefetched during the previous step), "forward", "loss" (and "loss.<term>"), "backward"
+  // (with the gradient all-reduce), "optimizer" (with the EMA).
   std::map<std::string, double> seconds;
 };
 
@@ -65,7 +68,7 @@ class Trainer {
  public:
   // `distributed` (kept by reference, must outlive the trainer) selects this process's shard
   // of each global batch and averages the gradients; rank 0's weights are copied to every
-  // rank here.
+  // rank here. Computes on config.threads (util::set_threads).
   Trainer(TrainConfig config, model::OmniPointModel model, const DistributedContext& distributed);
   Trainer(TrainConfig config, model::OmniPointModel model);
   ~Trainer();
@@ -74,6 +77,8 @@ class Trainer {
   int64_t step() const { return step_; }
   const TrainConfig& config() const { return config_; }
   model::OmniPointModel& model() { return model_; }
+  // Where the batches come from (its warnings and skipped-sample counts).
+  BatchSource& batch_source() { return source_; }
   // The EMA of the parameters (and the buffers as they are), by state_dict name.
   const std::map<std::string, at::Tensor>& ema() const { return ema_; }
 
