@@ -13,9 +13,10 @@ packages=(g++ cmake ninja-build ccache pkg-config
 command -v npm >/dev/null || packages+=(nodejs npm)
 if [[ "${1:-}" == "--tests" ]]; then
   # GoogleTest, Google Benchmark, OpenCV contrib (cv::omnidir cross-checks), PyTorch for tools/,
-  # Chromium for the viewer's browser test.
+  # Chromium for the viewer's browser test; clang with LLVM's OpenMP for the ThreadSanitizer
+  # lane, clang-tidy for the check of changed files.
   packages+=(libgtest-dev libgmock-dev libbenchmark-dev libopencv-contrib-dev python3-torch python3-numpy
-             chromium)
+             chromium clang libomp-dev clang-tidy)
 fi
 
 missing=()

@@ -86,5 +86,23 @@ TEST_F(FreshProcess, OmpNumThreadsIsTheUsersChoice) {
       ::testing::ExitedWithCode(0), "");
 }
 
+#ifdef OMNIPOINT_TSAN
+// The ThreadSanitizer lane sees the threads of a parallel loop: chunks that write one counter
+// unguarded are reported, and the report ends the process with TSan's exit code (66), so the
+// lane cannot pass by not looking (this file is built with OpenMP in that lane).
+TEST_F(FreshProcess, TheThreadSanitizerLaneSeesARaceInAParallelLoop) {
+  EXPECT_EXIT(
+      {
+        set_threads(2);
+        int64_t counter = 0;
+        parallel_for(0, 2, 1, [&](int64_t begin, int64_t end) {
+          for (int64_t i = begin; i < end; ++i) ++counter;
+        });
+        std::exit(counter == 2 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(66), "ThreadSanitizer: data race");
+}
+#endif
+
 }  // namespace
 }  // namespace omnipoint::util
