@@ -55,7 +55,6 @@ TEST_F(FreshProcess, EveryCoreWithoutAsking) {
   EXPECT_EXIT(
       {
         unsetenv("OMP_NUM_THREADS");
-        at::set_num_threads(1);  // as LibTorch's default is on a machine of one physical core
         use_default_threads();
         const bool every_core = at::get_num_threads() == cores() &&
                                 (openblas_threads() == -1 || openblas_threads() == cores());
@@ -71,6 +70,18 @@ TEST_F(FreshProcess, AChosenCountStays) {
         set_threads(1);
         use_default_threads();
         std::exit(at::get_num_threads() == 1 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+TEST_F(FreshProcess, ACountGivenToLibTorchStays) {
+  EXPECT_EXIT(
+      {
+        unsetenv("OMP_NUM_THREADS");
+        const int chosen = at::intraop_default_num_threads() + 1;
+        at::set_num_threads(chosen);
+        use_default_threads();
+        std::exit(at::get_num_threads() == chosen ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
 }

@@ -17,7 +17,6 @@
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_weights.h"
-#include "omnipoint/util/threads.h"
 
 namespace omnipoint::infer {
 namespace {
@@ -88,7 +87,6 @@ Network::Network(model::OmniPointModel model, at::Device device)
       device_(device),
       default_num_tokens_(model->config().num_tokens_range[1]),
       omnipoint_(std::move(model)) {
-  util::use_default_threads();  // the network's operators on every core (util/threads.h)
   omnipoint_->eval();
   omnipoint_->to(device);
 }
@@ -98,7 +96,6 @@ Network::Network(model::MoGe2Model model, at::Device device)
       device_(device),
       default_num_tokens_(model->config().default_num_tokens()),
       moge2_(std::move(model)) {
-  util::use_default_threads();
   moge2_->eval();
   moge2_->to(device);
 }

@@ -13,6 +13,7 @@
 #include "omnipoint/geometry/view_plane_uv.h"
 #include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::model {
 
@@ -240,6 +241,7 @@ EncoderOutput MoGe2EncoderImpl::forward(const at::Tensor& image, const TokenGrid
 // Model
 
 MoGe2ModelImpl::MoGe2ModelImpl(const MoGe2Config& config) : config_(config) {
+  util::use_default_threads();  // its operators on every core (util/threads.h)
   encoder = register_module("encoder", MoGe2Encoder(config_.encoder));
   neck = register_module("neck", ConvStack(config_.neck));
   points_head = register_module("points_head", ConvStack(*config_.points_head));

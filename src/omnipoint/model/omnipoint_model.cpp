@@ -7,6 +7,7 @@
 #include <string>
 
 #include "omnipoint/geometry/points.h"
+#include "omnipoint/util/threads.h"
 
 namespace omnipoint::model {
 namespace {
@@ -43,6 +44,7 @@ at::Tensor unit_length(const at::Tensor& vectors) {
 }  // namespace
 
 OmniPointModelImpl::OmniPointModelImpl(const OmniPointConfig& config) : config_(config) {
+  util::use_default_threads();  // its operators on every core (util/threads.h)
   config_.validate();
   encoder = register_module("encoder", MoGe2Encoder(config_.encoder));
   neck = register_module("neck", ConvStack(config_.neck));

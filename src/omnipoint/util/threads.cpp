@@ -37,7 +37,10 @@ void set_threads(int requested) {
 
 void use_default_threads() {
   std::call_once(default_threads_once, [] {
-    if (threads_chosen || std::getenv("OMP_NUM_THREADS") != nullptr) return;
+    // A count the program set through LibTorch itself, or OMP_NUM_THREADS, is its choice.
+    if (threads_chosen || std::getenv("OMP_NUM_THREADS") != nullptr ||
+        at::get_num_threads() != at::intraop_default_num_threads())
+      return;
     set_pools(thread_count(0, std::thread::hardware_concurrency()));
   });
 }

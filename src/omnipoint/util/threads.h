@@ -6,10 +6,10 @@
 // The default is every core (std::thread::hardware_concurrency). LibTorch's own default is the
 // machine's physical cores, which is one on a two-vCPU machine: a program that linked the
 // library and set nothing ran every parallel loop on one thread (P2A 1 MP -> 2048x1024: 284 ms
-// against 172 ms). So the library's entry points (loading a network, building a trainer, each
-// of its parallel loops) call use_default_threads(), and a program gets every core without
-// asking. A program chooses with set_threads(); OMP_NUM_THREADS in the environment is taken
-// as the user's choice and left alone.
+// against 172 ms). So the library's entry points (building a network, each of its parallel
+// loops) call use_default_threads(), and a program gets every core without asking. A program
+// chooses with set_threads(); a count it gave at::set_num_threads (other than LibTorch's
+// default) and OMP_NUM_THREADS in the environment are its choice too, and left alone.
 #include <ATen/Parallel.h>
 
 #include <cstdint>
@@ -26,8 +26,7 @@ int thread_count(int requested, unsigned hardware);
 // at::set_num_threads itself. From then on use_default_threads() changes nothing.
 void set_threads(int requested);
 
-// Every core, once per process, unless set_threads() was called or OMP_NUM_THREADS is set.
-// Cheap after the first call.
+// Every core, once per process, unless the program chose (above). Cheap after the first call.
 void use_default_threads();
 
 // at::parallel_for on the library's thread count (use_default_threads first). A template in
