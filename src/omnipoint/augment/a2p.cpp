@@ -56,9 +56,11 @@ PerspectiveView sample_perspective_view(const camera::Camera& wide, const A2PVie
         aspect >= 1 ? long_side : std::max<int64_t>(8, std::llround(long_side * aspect));
     const int64_t height =
         aspect >= 1 ? std::max<int64_t>(8, std::llround(long_side / aspect)) : long_side;
-    PerspectiveView view =
-        make_perspective_view(fov, uniform(generator, -180, 180),
-                              uniform(generator, -d.max_pitch_deg, d.max_pitch_deg), width, height);
+    // One draw a statement, pitch first: the order of two draws inside one call is the
+    // compiler's, and the views have always been drawn in GCC's (right to left).
+    const double pitch = uniform(generator, -d.max_pitch_deg, d.max_pitch_deg);
+    const double yaw = uniform(generator, -180, 180);
+    PerspectiveView view = make_perspective_view(fov, yaw, pitch, width, height);
     if (sees_axis(wide, view)) return view;
   }
   throw std::invalid_argument("sample_perspective_view: the wide camera " + wide.to_spec() +

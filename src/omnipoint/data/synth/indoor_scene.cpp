@@ -99,8 +99,11 @@ Scene make_indoor_scene(std::uint64_t seed) {
       break;
     }
   }
-  scene.pose = make_pose({cx, cy, cz}, std::atan2(-(tx - cx), ty - cy) + rng.uniform(-0.3, 0.3),
-                         rng.uniform(-0.3, 0.2), rng.uniform(-0.08, 0.08));
+  // One draw a statement: the order of draws inside one call is the compiler's (random.h).
+  const double roll = rng.uniform(-0.08, 0.08);
+  const double pitch = rng.uniform(-0.3, 0.2);
+  const double yaw = std::atan2(-(tx - cx), ty - cy) + rng.uniform(-0.3, 0.3);
+  scene.pose = make_pose({cx, cy, cz}, yaw, pitch, roll);
   std::vector<Footprint> taken{{cx, cy, 0.8}};
 
   const int items = rng.integer(4, 9);
@@ -143,8 +146,9 @@ Scene make_indoor_scene(std::uint64_t seed) {
         }
         case 5: {  // a floor lamp
           add_cylinder(scene, material, {x, y, 0.8}, {0, 0, 1}, 0.025, 0.8);
-          add_cylinder(scene, add_random_prop_material(scene, rng), {x, y, 1.6}, {0, 0, 1},
-                       rng.uniform(0.15, 0.25), 0.15);
+          const double shade_radius = rng.uniform(0.15, 0.25);
+          const int shade = add_random_prop_material(scene, rng);
+          add_cylinder(scene, shade, {x, y, 1.6}, {0, 0, 1}, shade_radius, 0.15);
           add_cylinder(scene, material, {x, y, 0.02}, {0, 0, 1}, 0.15, 0.02);
           radius = 0.3;
           break;

@@ -58,8 +58,9 @@ Scene make_object_scene(std::uint64_t seed) {
         break;
       case 1: {
         const double h = size * rng.uniform(0.5, 2.0);
-        add_box(scene, material, {x, y, top_z + h}, {size, size * rng.uniform(0.5, 1.0), h},
-                rng.uniform(-kPi, kPi));
+        const double yaw = rng.uniform(-kPi, kPi);
+        const double depth = size * rng.uniform(0.5, 1.0);
+        add_box(scene, material, {x, y, top_z + h}, {size, depth, h}, yaw);
         break;
       }
       case 2: {  // a can or a cup
@@ -89,9 +90,11 @@ Scene make_object_scene(std::uint64_t seed) {
                  top_z + rng.uniform(0.25, 0.8)};
   const Vec3 target{rng.uniform(-0.15, 0.15), rng.uniform(-0.1, 0.1), top_z + 0.05};
   const double dx = target[0] - eye[0], dy = target[1] - eye[1], dz = target[2] - eye[2];
-  scene.pose = make_pose(eye, std::atan2(-dx, dy) + rng.uniform(-0.1, 0.1),
-                         std::atan2(dz, std::hypot(dx, dy)) + rng.uniform(-0.08, 0.08),
-                         rng.uniform(-0.06, 0.06));
+  // One draw a statement: the order of draws inside one call is the compiler's (random.h).
+  const double roll = rng.uniform(-0.06, 0.06);
+  const double pitch = std::atan2(dz, std::hypot(dx, dy)) + rng.uniform(-0.08, 0.08);
+  const double yaw = std::atan2(-dx, dy) + rng.uniform(-0.1, 0.1);
+  scene.pose = make_pose(eye, yaw, pitch, roll);
 
   const int lamps = rng.integer(1, 2);
   for (int l = 0; l < lamps; ++l) {

@@ -38,9 +38,10 @@ Scene make_outdoor_scene(std::uint64_t seed) {
   const int asphalt = add_material(
       scene, Pattern::kNoise, jitter_color(rng, {0.3, 0.3, 0.31}, 0.15), {0.2, 0.2, 0.21}, 0.6);
   add_plane(scene, asphalt, {0, 0, 0}, {0, 0, 1});
+  const double paving_scale = rng.uniform(0.4, 0.8);
   const int paving =
       add_material(scene, Pattern::kTiles, jitter_color(rng, {0.62, 0.6, 0.56}, 0.15),
-                   {0.4, 0.39, 0.37}, rng.uniform(0.4, 0.8));
+                   {0.4, 0.39, 0.37}, paving_scale);
   for (double side : {-1.0, 1.0})
     add_box(scene, paving, {side * (road + walk / 2), 0, 0.075},
             {walk / 2, kStreetHalfLength, 0.075});
@@ -52,14 +53,26 @@ Scene make_outdoor_scene(std::uint64_t seed) {
 
   // The camera: on the road or the sidewalk, mostly looking along the street.
   const bool on_walk = rng.chance(0.3);
-  const double cam_x = on_walk ? rng.choice_sign() * (road + rng.uniform(0.5, walk - 0.5))
-                               : rng.uniform(-road + 1.0, road - 1.0);
+  double cam_x = 0;
+  if (on_walk) {
+    const double side = rng.choice_sign();
+    cam_x = side * (road + rng.uniform(0.5, walk - 0.5));
+  } else {
+    cam_x = rng.uniform(-road + 1.0, road - 1.0);
+  }
   const double cam_y = rng.uniform(-20, 20);
   const double cam_z = (on_walk ? 0.15 : 0.0) + rng.uniform(1.4, 2.2);
-  const double heading = rng.chance(0.8) ? (rng.chance(0.5) ? 0.0 : kPi) + rng.uniform(-0.5, 0.5)
-                                         : rng.uniform(-kPi, kPi);
-  scene.pose =
-      make_pose({cam_x, cam_y, cam_z}, heading, rng.uniform(-0.2, 0.12), rng.uniform(-0.05, 0.05));
+  double heading = 0;
+  if (rng.chance(0.8)) {
+    const double along = rng.chance(0.5) ? 0.0 : kPi;
+    heading = along + rng.uniform(-0.5, 0.5);
+  } else {
+    heading = rng.uniform(-kPi, kPi);
+  }
+  // One draw a statement: the order of draws inside one call is the compiler's (random.h).
+  const double roll = rng.uniform(-0.05, 0.05);
+  const double pitch = rng.uniform(-0.2, 0.12);
+  scene.pose = make_pose({cam_x, cam_y, cam_z}, heading, pitch, roll);
 
   // Buildings in two rows, with small gaps between them.
   static const Vec3 walls[] = {{0.75, 0.7, 0.6},
@@ -72,12 +85,15 @@ Scene make_outdoor_scene(std::uint64_t seed) {
       const double width = rng.uniform(8, 25), depth = rng.uniform(8, 20);
       const double height = rng.uniform(6, 35), setback = rng.uniform(0, 2);
       const Vec3 wall = jitter_color(rng, walls[rng.integer(0, 4)], 0.15);
-      const int material =
-          rng.chance(0.75)
-              ? add_material(scene, Pattern::kFacade, wall,
-                             jitter_color(rng, {0.2, 0.25, 0.3}, 0.3), rng.uniform(2.8, 3.6))
-              : add_material(scene, Pattern::kBricks, wall, {0.7, 0.68, 0.65},
-                             rng.uniform(0.22, 0.3));
+      int material = 0;
+      if (rng.chance(0.75)) {
+        const double scale = rng.uniform(2.8, 3.6);
+        material = add_material(scene, Pattern::kFacade, wall,
+                                jitter_color(rng, {0.2, 0.25, 0.3}, 0.3), scale);
+      } else {
+        material =
+            add_material(scene, Pattern::kBricks, wall, {0.7, 0.68, 0.65}, rng.uniform(0.22, 0.3));
+      }
       const double x = side * (road + walk + setback + depth / 2);
       add_box(scene, material, {x, y + width / 2, height / 2}, {depth / 2, width / 2, height / 2});
       y += width + (rng.chance(0.3) ? rng.uniform(2, 6) : 0.0);
@@ -118,9 +134,9 @@ Scene make_outdoor_scene(std::uint64_t seed) {
     for (double y = -60 + rng.uniform(0, 8); y < 60; y += rng.uniform(5.5, 14)) {
       if (std::abs(x - cam_x) < 2.2 && std::abs(y - cam_y) < 3.5) continue;
       if (rng.chance(0.3)) continue;
-      const int paint =
-          add_material(scene, Pattern::kNoise, jitter_color(rng, paints[rng.integer(0, 5)], 0.1),
-                       jitter_color(rng, paints[rng.integer(0, 5)], 0.1), 3.0);
+      const Vec3 second = jitter_color(rng, paints[rng.integer(0, 5)], 0.1);
+      const Vec3 first = jitter_color(rng, paints[rng.integer(0, 5)], 0.1);
+      const int paint = add_material(scene, Pattern::kNoise, first, second, 3.0);
       add_car(scene, rng, x, y, paint, glass, tyre);
     }
   }

@@ -1,7 +1,11 @@
 #pragma once
 // Counter-based random numbers for the synthetic scene engine. A draw is a pure function of
 // (seed, stream, counter): no global state, so a scene depends on its seed alone and is the
-// same on every machine, thread count and device. SplitMix64 finalisation (Steele et al.).
+// same on every machine, thread count, device and compiler. SplitMix64 finalisation (Steele et
+// al.). A draw advances the counter, so two draws inside one expression whose order C++ leaves
+// open (the arguments of one call, the operands of + or *) give another scene with another
+// compiler (clang evaluates arguments left to right, GCC right to left): one draw a statement,
+// in the order the scenes have always used (GCC's).
 #include <cstdint>
 
 namespace omnipoint::data::synth {

@@ -165,13 +165,18 @@ RoomMaterials add_room_materials(Scene& scene, Random& rng) {
       m.floor = add_material(scene, Pattern::kWood, wood,
                              {wood[0] * 0.6, wood[1] * 0.6, wood[2] * 0.6}, rng.uniform(1.5, 2.5));
       break;
-    case 2:
+    case 2: {
+      const double scale = rng.uniform(0.3, 0.6);
       m.floor = add_material(scene, Pattern::kTiles, jitter_color(rng, {0.75, 0.72, 0.68}, 0.2),
-                             {0.35, 0.33, 0.3}, rng.uniform(0.3, 0.6));
+                             {0.35, 0.33, 0.3}, scale);
       break;
-    default:
+    }
+    default: {
+      const double scale = rng.uniform(0.3, 0.5);
+      const Vec3 dark = jitter_color(rng, {0.2, 0.2, 0.22}, 0.2);
       m.floor = add_material(scene, Pattern::kChecker, jitter_color(rng, {0.8, 0.8, 0.78}, 0.1),
-                             jitter_color(rng, {0.2, 0.2, 0.22}, 0.2), rng.uniform(0.3, 0.5));
+                             dark, scale);
+    }
   }
   const Vec3 paint = jitter_color(rng, paints[rng.integer(0, 4)], 0.1);
   const Vec3 shade{paint[0] * 0.85, paint[1] * 0.85, paint[2] * 0.85};
@@ -179,10 +184,12 @@ RoomMaterials add_room_materials(Scene& scene, Random& rng) {
     case 0:
       m.walls = add_material(scene, Pattern::kStripes, paint, shade, rng.uniform(0.15, 0.4));
       break;
-    case 1:
+    case 1: {
+      const double scale = rng.uniform(0.22, 0.3);
       m.walls = add_material(scene, Pattern::kBricks, jitter_color(rng, {0.6, 0.3, 0.2}, 0.2),
-                             {0.75, 0.72, 0.68}, rng.uniform(0.22, 0.3));
+                             {0.75, 0.72, 0.68}, scale);
       break;
+    }
     default:
       m.walls = add_material(scene, Pattern::kNoise, paint, shade, rng.uniform(0.5, 2.0));
   }
