@@ -304,7 +304,7 @@ json folder_config(const std::string& folders, bool with_synth = false) {
   if (with_synth)
     config["data"]["datasets"].push_back(source);
   else
-    config["data"]["datasets"] = {source};
+    config["data"]["datasets"] = json::array({source});  // {source} alone is a copy on clang
   return config;
 }
 
