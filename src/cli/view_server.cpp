@@ -28,6 +28,7 @@
 #include "omnipoint/io/glb.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/io/staged_folder.h"
 
 extern char** environ;
 
@@ -216,8 +217,8 @@ std::optional<Cloud> load_cloud(const fs::path& root, const std::string& name, i
                total, shown};
 }
 
-// Ready-made prediction folders below `root`: hidden ones (predict's unfinished
-// `.NAME.partial-*`) and symlinked ones are not entered.
+// Ready-made prediction folders below `root`: staging folders (predict's unfinished ones,
+// io::StagedFolder), other hidden ones and symlinked ones are not entered.
 std::vector<std::string> find_predictions(const fs::path& root) {
   std::vector<std::string> names;
   if (fs::is_regular_file(root / "camera.json")) names.emplace_back(".");
@@ -225,7 +226,7 @@ std::vector<std::string> find_predictions(const fs::path& root) {
            fs::recursive_directory_iterator(root, fs::directory_options::skip_permission_denied);
        entry != fs::recursive_directory_iterator(); ++entry) {
     if (!entry->is_directory() || entry->is_symlink()) continue;
-    if (entry->path().filename().string().front() == '.') {
+    if (io::is_staging_folder(entry->path()) || entry->path().filename().string().front() == '.') {
       entry.disable_recursion_pending();
       continue;
     }
@@ -253,28 +254,9 @@ void open_in_browser(const std::string& url) {
             << " in one" << std::endl;
 }
 
-}  // namespace
-
-bool viewer_available() {
-  return true;
-}
-
-void serve_predictions(const ViewOptions& options) {
-  if (!fs::is_directory(options.dir))
-    throw std::invalid_argument("view: " + options.dir.string() + ": no such folder");
-  const fs::path root = fs::canonical(options.dir);
-  const std::size_t count = find_predictions(root).size();
-  if (count == 0)
-    throw std::invalid_argument("view: " + options.dir.string() +
-                                " holds no prediction folder (one with the camera.json that "
-                                "`omnipoint predict` writes)");
-  const std::string rebuild = ": reinstall omnipoint, or rebuild it (npm ci installs three.js)";
-  const fs::path page = fs::canonical(
-      find_bundled(OMNIPOINT_INSTALLED_VIEW, OMNIPOINT_SOURCE_VIEW, "the viewer's page", rebuild));
-  const fs::path three = fs::canonical(
-      find_bundled(OMNIPOINT_INSTALLED_VIEW "/three", OMNIPOINT_BUILT_THREE, "three.js", rebuild));
-
-  httplib::Server server;
+// The server's manners: no caching, an exclusive port, GET and HEAD only, an exception as a
+// 500 with its message.
+void configure(httplib::Server& server) {
   // Predictions are rewritten in place: the browser asks again each time.
   server.set_default_headers({{"Cache-Control", "no-cache"}});
   // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server would
@@ -302,25 +284,35 @@ void serve_predictions(const ViewOptions& options) {
           response.set_content("an unknown exception\n", "text/plain; charset=utf-8");
         }
       });
-  server.Get("/", [&](const httplib::Request&, httplib::Response& response) {
+}
+
+// The page and three.js's files (view_server.h: the routes).
+void route_page(httplib::Server& server, const fs::path& page, const fs::path& three) {
+  server.Get("/", [page](const httplib::Request&, httplib::Response& response) {
     send_file(response, resolve_inside(page, "index.html", fs::file_type::regular));
   });
-  server.Get(R"(/(view\.js|view\.css))", [&](const httplib::Request& request,
-                                             httplib::Response& response) {
+  server.Get(R"(/(view\.js|view\.css))", [page](const httplib::Request& request,
+                                                httplib::Response& response) {
     send_file(response, resolve_inside(page, request.matches[1].str(), fs::file_type::regular));
   });
-  server.Get("/three/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
+  server.Get("/three/(.+)", [three](const httplib::Request& request, httplib::Response& response) {
     send_file(response, resolve_inside(three, request.matches[1].str(), fs::file_type::regular));
   });
-  server.Get("/files/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
+}
+
+// The predictions under `root` (view_server.h: the routes).
+void route_predictions(httplib::Server& server, const fs::path& root, const ViewOptions& options) {
+  server.Get("/files/(.+)", [root](const httplib::Request& request, httplib::Response& response) {
     send_file(response, resolve_inside(root, request.matches[1].str(), fs::file_type::regular));
   });
-  server.Get("/colourised/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
-    const Resolved map = resolve_inside(root, request.matches[1].str(), fs::file_type::regular);
-    if (map.status != 200) return send_status(response, map.status);
-    response.set_content(colourised_png(map.path), "image/png");
-  });
-  server.Get("/api/predictions", [&](const httplib::Request&, httplib::Response& response) {
+  server.Get(
+      "/colourised/(.+)", [root](const httplib::Request& request, httplib::Response& response) {
+        const Resolved map = resolve_inside(root, request.matches[1].str(), fs::file_type::regular);
+        if (map.status != 200) return send_status(response, map.status);
+        response.set_content(colourised_png(map.path), "image/png");
+      });
+  server.Get("/api/predictions", [root, options](const httplib::Request&,
+                                                 httplib::Response& response) {
     json list = json::array();
     for (const std::string& name : find_predictions(root)) {
       const std::optional<int64_t> points = recorded_points(read_record(root / name));
@@ -331,7 +323,7 @@ void serve_predictions(const ViewOptions& options) {
     response.set_content(out.dump(), "application/json");
   });
   // A prediction by name (a query parameter: a path would lose the "." of DIR itself).
-  const auto named_folder = [&](const httplib::Request& request, httplib::Response& response) {
+  const auto named_folder = [root](const httplib::Request& request, httplib::Response& response) {
     if (!request.has_param("name")) {
       send_status(response, 400);
       return Resolved{400, {}};
@@ -341,13 +333,15 @@ void serve_predictions(const ViewOptions& options) {
     if (folder.status != 200) send_status(response, folder.status);
     return folder;
   };
-  server.Get("/api/prediction", [&](const httplib::Request& request, httplib::Response& response) {
+  server.Get("/api/prediction", [named_folder](const httplib::Request& request,
+                                               httplib::Response& response) {
     const Resolved folder = named_folder(request, response);
     if (folder.status == 200)
       response.set_content(describe_prediction(request.get_param_value("name"), folder.path).dump(),
                            "application/json");
   });
-  server.Get("/cloud", [&](const httplib::Request& request, httplib::Response& response) {
+  server.Get("/cloud", [root, options, named_folder](const httplib::Request& request,
+                                                     httplib::Response& response) {
     if (named_folder(request, response).status != 200) return;
     const std::optional<Cloud> cloud =
         load_cloud(root, request.get_param_value("name"), options.max_points);
@@ -358,7 +352,10 @@ void serve_predictions(const ViewOptions& options) {
       response.set_header("X-Omnipoint-Points-Shown", std::to_string(cloud->shown));
     response.set_content(cloud->glb, "model/gltf-binary");
   });
+}
 
+// Binds options.host:options.port (0: any free port); returns the port.
+int bind_port(httplib::Server& server, const ViewOptions& options) {
   int port = options.port;
   errno = 0;
   if (port == 0) {
@@ -375,6 +372,35 @@ void serve_predictions(const ViewOptions& options) {
                                                    : std::string("bind failed")) +
                              " (--port N picks another, --port 0 any free one)");
   }
+  return port;
+}
+
+}  // namespace
+
+bool viewer_available() {
+  return true;
+}
+
+void serve_predictions(const ViewOptions& options) {
+  if (!fs::is_directory(options.dir))
+    throw std::invalid_argument("view: " + options.dir.string() + ": no such folder");
+  const fs::path root = fs::canonical(options.dir);
+  const std::size_t count = find_predictions(root).size();
+  if (count == 0)
+    throw std::invalid_argument("view: " + options.dir.string() +
+                                " holds no prediction folder (one with the camera.json that "
+                                "`omnipoint predict` writes)");
+  const std::string rebuild = ": reinstall omnipoint, or rebuild it (npm ci installs three.js)";
+  const fs::path page = fs::canonical(
+      find_bundled(OMNIPOINT_INSTALLED_VIEW, OMNIPOINT_SOURCE_VIEW, "the viewer's page", rebuild));
+  const fs::path three = fs::canonical(
+      find_bundled(OMNIPOINT_INSTALLED_VIEW "/three", OMNIPOINT_BUILT_THREE, "three.js", rebuild));
+
+  httplib::Server server;
+  configure(server);
+  route_page(server, page, three);
+  route_predictions(server, root, options);
+  const int port = bind_port(server, options);
   if (!is_loopback(options.host))
     std::cerr << "omnipoint: warning: view: listening on " << options.host
               << ", not only this machine: whoever reaches it can read every file under "

@@ -19,6 +19,7 @@
 #include "omnipoint/data/transform.h"
 #include "omnipoint/geometry/sparse_sampling.h"
 #include "omnipoint/infer/teacher.h"
+#include "omnipoint/io/staged_folder.h"
 #include "omnipoint/util/threads.h"
 
 namespace omnipoint::train {
@@ -94,9 +95,9 @@ BatchSource::BatchSource(const TrainConfig& config) : config_(config) {
       if (!fs::is_directory(source.folders, error))
         throw std::runtime_error("training data \"" + source.folders +
                                  "\": not a directory of sample folders");
-      // (A ".partial" folder is a sample still being written by `omnipoint synth`.)
+      // (A staging folder is a sample still being written by `omnipoint synth`.)
       for (const fs::directory_entry& entry : fs::directory_iterator(source.folders))
-        if (entry.is_directory() && entry.path().extension() != ".partial")
+        if (entry.is_directory() && !io::is_staging_folder(entry.path()))
           folders.push_back(entry.path().string());
       if (folders.empty())
         throw std::runtime_error("training data \"" + source.folders +
