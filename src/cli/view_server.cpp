@@ -274,7 +274,7 @@ void configure(httplib::Server& server) {
     return httplib::Server::HandlerResponse::Handled;
   });
   server.set_exception_handler(
-      [](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
+      [](const httplib::Request&, httplib::Response& response, const std::exception_ptr& error) {
         response.status = 500;
         try {
           std::rethrow_exception(error);
@@ -328,7 +328,7 @@ void route_predictions(httplib::Server& server, const fs::path& root, const View
       send_status(response, 400);
       return Resolved{400, {}};
     }
-    const Resolved folder =
+    Resolved folder =
         resolve_inside(root, request.get_param_value("name"), fs::file_type::directory);
     if (folder.status != 200) send_status(response, folder.status);
     return folder;

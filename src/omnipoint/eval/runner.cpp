@@ -310,7 +310,7 @@ std::string write_run_files(const std::string& folder, const RunResult& result) 
   });
   io::write_file_atomically((out / "summary.json").string(),
                             [&](std::ostream& stream) { stream << summary_json(result.summary); });
-  const std::string table = markdown_table({result.summary});
+  std::string table = markdown_table({result.summary});
   io::write_file_atomically((out / "table.md").string(),
                             [&](std::ostream& stream) { stream << table; });
   return table;
