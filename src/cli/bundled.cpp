@@ -1,5 +1,6 @@
 #include "cli/bundled.h"
 
+#include <cstdlib>
 #include <stdexcept>
 #include <system_error>
 #include <vector>
@@ -19,6 +20,18 @@ std::filesystem::path find_bundled(const std::string& installed, const std::stri
     looked_for += (looked_for.empty() ? "" : " and ") + candidate.string();
   }
   throw std::invalid_argument(missing + " is missing (looked for " + looked_for + ")" + advice);
+}
+
+// Installed beside the tool (<prefix>/bin/omnipoint -> <prefix>/share/omnipoint/), else in the
+// source tree it was built from.
+std::string model_path_or_bundled(const std::string& given) {
+  if (!given.empty()) return given;
+  if (const char* environment = std::getenv("OMNIPOINT_MODEL");
+      environment != nullptr && *environment != '\0')
+    return environment;
+  return find_bundled(OMNIPOINT_INSTALLED_MODEL, OMNIPOINT_SOURCE_MODEL,
+                      "no model given and the bundled one", ": pass a checkpoint with --model FILE")
+      .string();
 }
 
 }  // namespace omnipoint::cli

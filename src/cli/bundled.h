@@ -12,4 +12,8 @@ namespace omnipoint::cli {
 std::filesystem::path find_bundled(const std::string& installed, const std::string& built,
                                    const std::string& missing, const std::string& advice);
 
+// The model a command runs: `given` (--model), else $OMNIPOINT_MODEL, else the bundled model
+// (find_bundled).
+std::string model_path_or_bundled(const std::string& given);
+
 }  // namespace omnipoint::cli

@@ -13,7 +13,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <ostream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -150,6 +149,87 @@ void print_progress(int64_t done, int64_t total, double seconds) {
   std::fflush(stderr);
 }
 
+// Runs the benchmark of the bound options; `sparse_depth_given`: --sparse-depth was on the
+// command line (with or without a count).
+void run_eval(const EvalOptions& options, bool sparse_depth_given) {
+  use_threads(options.threads);
+  if (options.device != "cpu" && options.device != "cuda")
+    throw std::invalid_argument("--device " + options.device + ": expected cpu or cuda");
+  if (options.num_tokens < 0)
+    throw std::invalid_argument("--num-tokens " + std::to_string(options.num_tokens) +
+                                ": expected >= 0");
+  eval::RunOptions run;
+  run.sparse_depth_points = sparse_depth_points(options.sparse_depth);
+  run.modes = eval::evaluation_modes(options.intrinsics, sparse_depth_given);
+  run.seed = options.seed;
+  run.moge_metric = !options.moge_relative;
+  run.progress = print_progress;
+  if (options.save_points)
+    run.scored = [out = fs::path(options.out)](const eval::EvalSample& item, const eval::Mode& mode,
+                                               const eval::Conditions& conditions,
+                                               const eval::GeometryPrediction& prediction) {
+      save_points(out, item, mode, conditions, prediction);
+    };
+  const eval::Predictor predictor = make_predictor(options);
+  const eval::RunResult result = eval::run_benchmark(predictor, options.data, run);
+  const std::string table = eval::write_run_files(options.out, result);
+  for (const auto& [reason, count] : result.summary.skipped)
+    std::cerr << "eval: skipped " << count << " sample(s): " << reason
+              << " (details in samples.jsonl)\n";
+  for (const auto& mode : result.summary.modes_not_supported)
+    std::cerr << "eval: mode " << mode << " not run: " << predictor.name
+              << " takes no such input\n";
+  std::cout << table;
+}
+
+// What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
+// labelled.
+void add_predictor_options(CLI::App* cmd, EvalOptions& options) {
+  cmd->add_option("--model", options.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+  cmd->add_option(
+      "--random-model", options.random_model,
+      "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
+  cmd->add_option("--predictions", options.predictions,
+                  "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
+  cmd->add_option("--baseline", options.baseline,
+                  "oracle (GT rays and distances) | constant (GT rays, --constant-distance) | "
+                  "median (GT rays, the per-pixel median distance of --baseline-data's samples "
+                  "of the same camera: picture-blind)");
+  cmd->add_option("--baseline-data", options.baseline_data,
+                  "for --baseline median: training sample folders (e.g. the benchmark's main set)")
+      ->expected(1, -1);
+  cmd->add_option("--constant-distance", options.constant_distance,
+                  "metres, for --baseline constant")
+      ->capture_default_str();
+  cmd->add_option("--label", options.label,
+                  "row label in the table (default: the file or folder name)");
+  cmd->add_option("--num-tokens", options.num_tokens,
+                  "ViT tokens per image (0: the image's native count)")
+      ->capture_default_str();
+  cmd->add_option("--device", options.device, "cpu | cuda")->capture_default_str();
+  cmd->add_option("--precision", options.precision, kPrecisionHelp)->capture_default_str();
+}
+
+// On what (datasets, modes) and what is written.
+void add_benchmark_options(CLI::App* cmd, EvalOptions& options) {
+  cmd->add_option("--data", options.data, "dataset folders (sample folders, MoGe benchmark roots)")
+      ->required()
+      ->expected(1, -1);
+  cmd->add_flag("--intrinsics", options.intrinsics,
+                "also evaluate with the GT camera given (+K, +K+D)");
+  cmd->add_option("--sparse-depth", options.sparse_depth,
+                  "also evaluate with N GT sparse distances (+D, +K+D); N defaults to 1000")
+      ->expected(0, 1);
+  cmd->add_option("--out", options.out, "output folder")->required();
+  cmd->add_option("--seed", options.seed,
+                  "seed mixed into the sparse-depth sampling (and of --random-model's weights)")
+      ->capture_default_str();
+  cmd->add_flag("--save-points", options.save_points,
+                "also write OUT/points/<dataset>/<id>/<mode>/points.npy, the point map scored, "
+                "and sparse_distance.npy, the sparse radial distances given (+D)");
+  cmd->add_flag("--moge-relative", options.moge_relative, "MoGe benchmark depth is not metric");
+}
+
 }  // namespace
 
 void add_eval_command(CLI::App& app) {
@@ -159,90 +239,11 @@ void add_eval_command(CLI::App& app) {
       "Score a model, external point maps or a baseline on datasets (our sample folders, MoGe "
       "benchmarks) with MoGe's protocol per camera split (S.FoV / L.FoV / 360°) and condition "
       "mode; writes samples.jsonl, summary.json and table.md to --out");
-  cmd->add_option("--model", options->model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
-  cmd->add_option(
-      "--random-model", options->random_model,
-      "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
-  cmd->add_option("--predictions", options->predictions,
-                  "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
-  cmd->add_option("--baseline", options->baseline,
-                  "oracle (GT rays and distances) | constant (GT rays, --constant-distance) | "
-                  "median (GT rays, the per-pixel median distance of --baseline-data's samples "
-                  "of the same camera: picture-blind)");
-  cmd->add_option("--baseline-data", options->baseline_data,
-                  "for --baseline median: training sample folders (e.g. the benchmark's main set)")
-      ->expected(1, -1);
-  cmd->add_option("--data", options->data, "dataset folders (sample folders, MoGe benchmark roots)")
-      ->required()
-      ->expected(1, -1);
-  cmd->add_flag("--intrinsics", options->intrinsics,
-                "also evaluate with the GT camera given (+K, +K+D)");
-  cmd->add_option("--sparse-depth", options->sparse_depth,
-                  "also evaluate with N GT sparse distances (+D, +K+D); N defaults to 1000")
-      ->expected(0, 1);
-  cmd->add_option("--out", options->out, "output folder")->required();
-  cmd->add_option("--label", options->label,
-                  "row label in the table (default: the file or folder name)");
-  cmd->add_option("--num-tokens", options->num_tokens,
-                  "ViT tokens per image (0: the image's native count)")
-      ->capture_default_str();
-  cmd->add_option("--seed", options->seed,
-                  "seed mixed into the sparse-depth sampling (and of --random-model's weights)")
-      ->capture_default_str();
-  cmd->add_option("--constant-distance", options->constant_distance,
-                  "metres, for --baseline constant")
-      ->capture_default_str();
-  cmd->add_flag("--save-points", options->save_points,
-                "also write OUT/points/<dataset>/<id>/<mode>/points.npy, the point map scored, "
-                "and sparse_distance.npy, the sparse radial distances given (+D)");
-  cmd->add_flag("--moge-relative", options->moge_relative, "MoGe benchmark depth is not metric");
-  cmd->add_option("--device", options->device, "cpu | cuda")->capture_default_str();
-  cmd->add_option("--precision", options->precision, kPrecisionHelp)->capture_default_str();
+  add_predictor_options(cmd, *options);
+  add_benchmark_options(cmd, *options);
   add_threads_option(cmd, &options->threads);
   auto* sparse = cmd->get_option("--sparse-depth");
-  cmd->callback([options, sparse] {
-    use_threads(options->threads);
-    if (options->device != "cpu" && options->device != "cuda")
-      throw std::invalid_argument("--device " + options->device + ": expected cpu or cuda");
-    if (options->num_tokens < 0)
-      throw std::invalid_argument("--num-tokens " + std::to_string(options->num_tokens) +
-                                  ": expected >= 0");
-    eval::RunOptions run;
-    const bool sparse_depth = sparse->count() > 0;
-    run.sparse_depth_points = sparse_depth_points(options->sparse_depth);
-    run.modes = eval::evaluation_modes(options->intrinsics, sparse_depth);
-    run.seed = options->seed;
-    run.moge_metric = !options->moge_relative;
-    run.progress = print_progress;
-    if (options->save_points)
-      run.scored = [out = fs::path(options->out)](const eval::EvalSample& item,
-                                                  const eval::Mode& mode,
-                                                  const eval::Conditions& conditions,
-                                                  const eval::GeometryPrediction& prediction) {
-        save_points(out, item, mode, conditions, prediction);
-      };
-    const eval::Predictor predictor = make_predictor(*options);
-    const eval::RunResult result = eval::run_benchmark(predictor, options->data, run);
-
-    fs::create_directories(options->out);
-    const fs::path out(options->out);
-    io::write_file_atomically((out / "samples.jsonl").string(), [&](std::ostream& stream) {
-      for (const auto& record : result.records) stream << record << "\n";
-    });
-    io::write_file_atomically((out / "summary.json").string(), [&](std::ostream& stream) {
-      stream << eval::summary_json(result.summary);
-    });
-    const std::string table = eval::markdown_table({result.summary});
-    io::write_file_atomically((out / "table.md").string(),
-                              [&](std::ostream& stream) { stream << table; });
-    for (const auto& [reason, count] : result.summary.skipped)
-      std::cerr << "eval: skipped " << count << " sample(s): " << reason
-                << " (details in samples.jsonl)\n";
-    for (const auto& mode : result.summary.modes_not_supported)
-      std::cerr << "eval: mode " << mode << " not run: " << predictor.name
-                << " takes no such input\n";
-    std::cout << table;
-  });
+  cmd->callback([options, sparse] { run_eval(*options, sparse->count() > 0); });
 }
 
 }  // namespace omnipoint::cli

@@ -19,6 +19,7 @@
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/camera_file.h"
+#include "omnipoint/io/staged_folder.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -44,9 +45,10 @@ data::synth::SynthOptions synth_options(const SynthArgs& args) {
 
 // A set definition (a benchmark or a training pool) into OUT/<split>/<index>. Its render
 // settings are part of the definition; --no-shadows / --no-ao do not apply. Each sample is
-// written into <folder>.partial and renamed into place when complete, so a folder that exists
-// is whole: an interrupted run resumes where it stopped (existing folders are kept), and
-// --shard K/N lets N processes share the work. Prints one line per sample and the total time.
+// written into a staging folder (io::StagedFolder) and renamed into place when complete, so a
+// folder that exists is whole: an interrupted run resumes where it stopped (existing folders are
+// kept, what a killed run left half-written is removed), and --shard K/N lets N processes share
+// the work. Prints one line per sample and the total time.
 void render_definition(const SynthArgs& args) {
   namespace fs = std::filesystem;
   const auto plan = data::synth::plan_benchmark(io::read_file(args.benchmark), args.benchmark,
@@ -65,12 +67,11 @@ void render_definition(const SynthArgs& args) {
       ++kept;
       continue;
     }
-    const fs::path partial = folder.string() + ".partial";
-    fs::remove_all(partial);
+    io::StagedFolder staged(folder);
     data::synth::write_synth_sample(
-        partial.string(),
+        staged.path().string(),
         data::synth::synthesize(sample.scene, sample.seed, sample.camera, options), files);
-    fs::rename(partial, folder);
+    staged.commit();
     ++rendered;
     std::cout << folder.string() << "\n";
   }

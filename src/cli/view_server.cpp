@@ -28,6 +28,7 @@
 #include "omnipoint/io/glb.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/io/staged_folder.h"
 
 extern char** environ;
 
@@ -216,8 +217,8 @@ std::optional<Cloud> load_cloud(const fs::path& root, const std::string& name, i
                total, shown};
 }
 
-// Ready-made prediction folders below `root`: hidden ones (predict's unfinished
-// `.NAME.partial-*`) and symlinked ones are not entered.
+// Ready-made prediction folders below `root`: staging folders (predict's unfinished ones,
+// io::StagedFolder), other hidden ones and symlinked ones are not entered.
 std::vector<std::string> find_predictions(const fs::path& root) {
   std::vector<std::string> names;
   if (fs::is_regular_file(root / "camera.json")) names.emplace_back(".");
@@ -225,7 +226,7 @@ std::vector<std::string> find_predictions(const fs::path& root) {
            fs::recursive_directory_iterator(root, fs::directory_options::skip_permission_denied);
        entry != fs::recursive_directory_iterator(); ++entry) {
     if (!entry->is_directory() || entry->is_symlink()) continue;
-    if (entry->path().filename().string().front() == '.') {
+    if (io::is_staging_folder(entry->path()) || entry->path().filename().string().front() == '.') {
       entry.disable_recursion_pending();
       continue;
     }
@@ -253,6 +254,127 @@ void open_in_browser(const std::string& url) {
             << " in one" << std::endl;
 }
 
+// The server's manners: no caching, an exclusive port, GET and HEAD only, an exception as a
+// 500 with its message.
+void configure(httplib::Server& server) {
+  // Predictions are rewritten in place: the browser asks again each time.
+  server.set_default_headers({{"Cache-Control", "no-cache"}});
+  // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server would
+  // share a port that is in use instead of failing.
+  server.set_socket_options([](socket_t socket) {
+    const int on = 1;
+    ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &on, sizeof(on));
+  });
+  // Read-only: GET (and HEAD, which httplib answers from the GET handlers) and nothing else.
+  server.set_pre_routing_handler([](const httplib::Request& request, httplib::Response& response) {
+    if (request.method == "GET" || request.method == "HEAD")
+      return httplib::Server::HandlerResponse::Unhandled;
+    response.set_header("Allow", "GET, HEAD");
+    send_status(response, 405);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  server.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& response, const std::exception_ptr& error) {
+        response.status = 500;
+        try {
+          std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          response.set_content(std::string(e.what()) + "\n", "text/plain; charset=utf-8");
+        } catch (...) {
+          response.set_content("an unknown exception\n", "text/plain; charset=utf-8");
+        }
+      });
+}
+
+// The page and three.js's files (view_server.h: the routes).
+void route_page(httplib::Server& server, const fs::path& page, const fs::path& three) {
+  server.Get("/", [page](const httplib::Request&, httplib::Response& response) {
+    send_file(response, resolve_inside(page, "index.html", fs::file_type::regular));
+  });
+  server.Get(R"(/(view\.js|view\.css))", [page](const httplib::Request& request,
+                                                httplib::Response& response) {
+    send_file(response, resolve_inside(page, request.matches[1].str(), fs::file_type::regular));
+  });
+  server.Get("/three/(.+)", [three](const httplib::Request& request, httplib::Response& response) {
+    send_file(response, resolve_inside(three, request.matches[1].str(), fs::file_type::regular));
+  });
+}
+
+// The predictions under `root` (view_server.h: the routes).
+void route_predictions(httplib::Server& server, const fs::path& root, const ViewOptions& options) {
+  server.Get("/files/(.+)", [root](const httplib::Request& request, httplib::Response& response) {
+    send_file(response, resolve_inside(root, request.matches[1].str(), fs::file_type::regular));
+  });
+  server.Get(
+      "/colourised/(.+)", [root](const httplib::Request& request, httplib::Response& response) {
+        const Resolved map = resolve_inside(root, request.matches[1].str(), fs::file_type::regular);
+        if (map.status != 200) return send_status(response, map.status);
+        response.set_content(colourised_png(map.path), "image/png");
+      });
+  server.Get("/api/predictions", [root, options](const httplib::Request&,
+                                                 httplib::Response& response) {
+    json list = json::array();
+    for (const std::string& name : find_predictions(root)) {
+      const std::optional<int64_t> points = recorded_points(read_record(root / name));
+      list.push_back({{"name", name}, {"points", points ? json(*points) : json()}});
+    }
+    const json out = {
+        {"root", options.dir.string()}, {"max_points", options.max_points}, {"predictions", list}};
+    response.set_content(out.dump(), "application/json");
+  });
+  // A prediction by name (a query parameter: a path would lose the "." of DIR itself).
+  const auto named_folder = [root](const httplib::Request& request, httplib::Response& response) {
+    if (!request.has_param("name")) {
+      send_status(response, 400);
+      return Resolved{400, {}};
+    }
+    Resolved folder =
+        resolve_inside(root, request.get_param_value("name"), fs::file_type::directory);
+    if (folder.status != 200) send_status(response, folder.status);
+    return folder;
+  };
+  server.Get("/api/prediction", [named_folder](const httplib::Request& request,
+                                               httplib::Response& response) {
+    const Resolved folder = named_folder(request, response);
+    if (folder.status == 200)
+      response.set_content(describe_prediction(request.get_param_value("name"), folder.path).dump(),
+                           "application/json");
+  });
+  server.Get("/cloud", [root, options, named_folder](const httplib::Request& request,
+                                                     httplib::Response& response) {
+    if (named_folder(request, response).status != 200) return;
+    const std::optional<Cloud> cloud =
+        load_cloud(root, request.get_param_value("name"), options.max_points);
+    if (!cloud) return send_status(response, 404);
+    if (cloud->total)
+      response.set_header("X-Omnipoint-Points-Total", std::to_string(*cloud->total));
+    if (cloud->shown >= 0)
+      response.set_header("X-Omnipoint-Points-Shown", std::to_string(cloud->shown));
+    response.set_content(cloud->glb, "model/gltf-binary");
+  });
+}
+
+// Binds options.host:options.port (0: any free port); returns the port.
+int bind_port(httplib::Server& server, const ViewOptions& options) {
+  int port = options.port;
+  errno = 0;
+  if (port == 0) {
+    port = server.bind_to_any_port(options.host);
+  } else if (!server.bind_to_port(options.host, port)) {
+    port = -1;
+  }
+  if (port < 0) {
+    const int reason = errno;
+    throw std::runtime_error("view: cannot listen on " + options.host + ":" +
+                             std::to_string(options.port) + ": " +
+                             (reason == EADDRINUSE ? std::string("the port is in use")
+                              : reason != 0        ? std::strerror(reason)
+                                                   : std::string("bind failed")) +
+                             " (--port N picks another, --port 0 any free one)");
+  }
+  return port;
+}
+
 }  // namespace
 
 bool viewer_available() {
@@ -275,106 +397,10 @@ void serve_predictions(const ViewOptions& options) {
       find_bundled(OMNIPOINT_INSTALLED_VIEW "/three", OMNIPOINT_BUILT_THREE, "three.js", rebuild));
 
   httplib::Server server;
-  // Predictions are rewritten in place: the browser asks again each time.
-  server.set_default_headers({{"Cache-Control", "no-cache"}});
-  // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server would
-  // share a port that is in use instead of failing.
-  server.set_socket_options([](socket_t socket) {
-    const int on = 1;
-    ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &on, sizeof(on));
-  });
-  // Read-only: GET (and HEAD, which httplib answers from the GET handlers) and nothing else.
-  server.set_pre_routing_handler([](const httplib::Request& request, httplib::Response& response) {
-    if (request.method == "GET" || request.method == "HEAD")
-      return httplib::Server::HandlerResponse::Unhandled;
-    response.set_header("Allow", "GET, HEAD");
-    send_status(response, 405);
-    return httplib::Server::HandlerResponse::Handled;
-  });
-  server.set_exception_handler(
-      [](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
-        response.status = 500;
-        try {
-          std::rethrow_exception(error);
-        } catch (const std::exception& e) {
-          response.set_content(std::string(e.what()) + "\n", "text/plain; charset=utf-8");
-        } catch (...) {
-          response.set_content("an unknown exception\n", "text/plain; charset=utf-8");
-        }
-      });
-  server.Get("/", [&](const httplib::Request&, httplib::Response& response) {
-    send_file(response, resolve_inside(page, "index.html", fs::file_type::regular));
-  });
-  server.Get(R"(/(view\.js|view\.css))", [&](const httplib::Request& request,
-                                             httplib::Response& response) {
-    send_file(response, resolve_inside(page, request.matches[1].str(), fs::file_type::regular));
-  });
-  server.Get("/three/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
-    send_file(response, resolve_inside(three, request.matches[1].str(), fs::file_type::regular));
-  });
-  server.Get("/files/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
-    send_file(response, resolve_inside(root, request.matches[1].str(), fs::file_type::regular));
-  });
-  server.Get("/colourised/(.+)", [&](const httplib::Request& request, httplib::Response& response) {
-    const Resolved map = resolve_inside(root, request.matches[1].str(), fs::file_type::regular);
-    if (map.status != 200) return send_status(response, map.status);
-    response.set_content(colourised_png(map.path), "image/png");
-  });
-  server.Get("/api/predictions", [&](const httplib::Request&, httplib::Response& response) {
-    json list = json::array();
-    for (const std::string& name : find_predictions(root)) {
-      const std::optional<int64_t> points = recorded_points(read_record(root / name));
-      list.push_back({{"name", name}, {"points", points ? json(*points) : json()}});
-    }
-    const json out = {
-        {"root", options.dir.string()}, {"max_points", options.max_points}, {"predictions", list}};
-    response.set_content(out.dump(), "application/json");
-  });
-  // A prediction by name (a query parameter: a path would lose the "." of DIR itself).
-  const auto named_folder = [&](const httplib::Request& request, httplib::Response& response) {
-    if (!request.has_param("name")) {
-      send_status(response, 400);
-      return Resolved{400, {}};
-    }
-    const Resolved folder =
-        resolve_inside(root, request.get_param_value("name"), fs::file_type::directory);
-    if (folder.status != 200) send_status(response, folder.status);
-    return folder;
-  };
-  server.Get("/api/prediction", [&](const httplib::Request& request, httplib::Response& response) {
-    const Resolved folder = named_folder(request, response);
-    if (folder.status == 200)
-      response.set_content(describe_prediction(request.get_param_value("name"), folder.path).dump(),
-                           "application/json");
-  });
-  server.Get("/cloud", [&](const httplib::Request& request, httplib::Response& response) {
-    if (named_folder(request, response).status != 200) return;
-    const std::optional<Cloud> cloud =
-        load_cloud(root, request.get_param_value("name"), options.max_points);
-    if (!cloud) return send_status(response, 404);
-    if (cloud->total)
-      response.set_header("X-Omnipoint-Points-Total", std::to_string(*cloud->total));
-    if (cloud->shown >= 0)
-      response.set_header("X-Omnipoint-Points-Shown", std::to_string(cloud->shown));
-    response.set_content(cloud->glb, "model/gltf-binary");
-  });
-
-  int port = options.port;
-  errno = 0;
-  if (port == 0) {
-    port = server.bind_to_any_port(options.host);
-  } else if (!server.bind_to_port(options.host, port)) {
-    port = -1;
-  }
-  if (port < 0) {
-    const int reason = errno;
-    throw std::runtime_error("view: cannot listen on " + options.host + ":" +
-                             std::to_string(options.port) + ": " +
-                             (reason == EADDRINUSE ? std::string("the port is in use")
-                              : reason != 0        ? std::strerror(reason)
-                                                   : std::string("bind failed")) +
-                             " (--port N picks another, --port 0 any free one)");
-  }
+  configure(server);
+  route_page(server, page, three);
+  route_predictions(server, root, options);
+  const int port = bind_port(server, options);
   if (!is_loopback(options.host))
     std::cerr << "omnipoint: warning: view: listening on " << options.host
               << ", not only this machine: whoever reaches it can read every file under "

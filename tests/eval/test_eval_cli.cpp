@@ -101,7 +101,8 @@ TEST_F(EvalCli, SynthBenchmarkWritesEverySplitAndSample) {
 }
 
 // A set rendered by two shards equals one render; a rerun keeps what exists and finishes what
-// an interrupted run left (a ".partial" folder); --core-files writes only what training reads.
+// an interrupted run left (a staging folder, io::StagedFolder); --core-files writes only what
+// training reads.
 TEST_F(EvalCli, SynthDefinitionShardsResumeAndCoreFiles) {
   const std::string definition = (work_dir() / "tiny.json").string();
   const fs::path sharded = work_dir() / "sharded";
@@ -123,16 +124,18 @@ TEST_F(EvalCli, SynthDefinitionShardsResumeAndCoreFiles) {
                    fs::exists(folder / "depth.npy"))
           << folder;
     }
-  // An interrupted run: one sample half written, another missing.
+  // An interrupted run: one sample half written (its staging folder, no longer locked by the
+  // process that died), another missing.
   fs::remove_all(sharded / "360" / "0001");
-  fs::create_directories(sharded / "360" / "0001.partial");
-  std::ofstream(sharded / "360" / "0001.partial" / "image.png") << "half";
+  const fs::path half_written = sharded / "360" / ".0001.partial-Xy12z9";
+  fs::create_directories(half_written);
+  std::ofstream(half_written / "image.png") << "half";
   const CliRun resumed =
       run_cli("synth --definition " + definition + " --core-files --out " + sharded.string());
   ASSERT_EQ(resumed.status, 0) << resumed.err;
   EXPECT_NE(resumed.err.find("1 samples rendered"), std::string::npos) << resumed.err;
   EXPECT_NE(resumed.err.find("5 already there"), std::string::npos) << resumed.err;
-  EXPECT_FALSE(fs::exists(sharded / "360" / "0001.partial"));
+  EXPECT_FALSE(fs::exists(half_written));
   EXPECT_EQ(slurp(sharded / "360" / "0001" / "distance.npy"),
             slurp(work_dir() / "data" / "360" / "0001" / "distance.npy"));
   for (const char* bad : {"2/2", "1", "a/2", "0/0", "-1/2"}) {

@@ -15,6 +15,7 @@
 
 #include "eval/eval_test_data.h"
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/data/dataset_index.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
@@ -273,6 +274,18 @@ TEST(RunnerBadInputs, MissingOrEmptyDatasetsAreErrors) {
   }
   EXPECT_THROW(run_benchmark(oracle_predictor(), {}, RunOptions{}), std::invalid_argument);
   fs::remove_all(empty);
+}
+
+// A sample still being written (or left by a killed `synth`) sits in a staging folder
+// (io::StagedFolder): even with every file in it, it is no sample yet.
+TEST(RunnerDatasets, StagingFoldersAreNotListed) {
+  const fs::path root = testing::make_tiny_dataset("staging", 1);
+  fs::copy(root / "sfov" / "0", root / "sfov" / ".1.partial-Ab12cd", fs::copy_options::recursive);
+  const std::vector<data::DatasetItem> items = data::list_dataset(root.string());
+  ASSERT_EQ(items.size(), 3u);
+  for (const data::DatasetItem& item : items)
+    EXPECT_EQ(item.id.find("partial"), std::string::npos) << item.id;
+  fs::remove_all(root);
 }
 
 TEST(RunnerBadInputs, BadSamplesAndMissingPredictionsAreSkippedAndCounted) {

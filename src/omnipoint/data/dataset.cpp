@@ -10,6 +10,7 @@
 
 #include "omnipoint/data/moge_format.h"
 #include "omnipoint/data/synth/random.h"
+#include "omnipoint/io/staged_folder.h"
 
 namespace omnipoint::data {
 namespace {
@@ -58,9 +59,9 @@ std::unique_ptr<Dataset> open_sample_folders(const DatasetLocation& location) {
   if (!fs::is_directory(root, error))
     throw std::runtime_error("dataset \"" + root + "\": not a directory of sample folders");
   std::vector<std::string> folders;
-  // (A ".partial" folder is a sample still being written by `omnipoint synth`.)
+  // (A staging folder is a sample still being written by `omnipoint synth`.)
   for (const fs::directory_entry& entry : fs::directory_iterator(root))
-    if (entry.is_directory() && entry.path().extension() != ".partial")
+    if (entry.is_directory() && !io::is_staging_folder(entry.path()))
       folders.push_back(entry.path().string());
   if (folders.empty())
     throw std::runtime_error("dataset \"" + root + "\": holds no sample folders");

@@ -4,7 +4,8 @@
 // the training's: train/batch_source.h). A reader of a format on disk registers itself under a
 // name (open_dataset); the built-in ones:
 //   "folders"  a directory of sample folders in the format of sample.h (one item per folder,
-//              in name order; a ".partial" folder is a sample still being written, left out)
+//              in name order; a staging folder (io/staged_folder.h) is a sample still
+//              being written, left out)
 //   "moge"     a MoGe evaluation benchmark root (moge_format.h; its .index.txt order)
 // The synthetic scene engine is a dataset too (synth/synth_dataset.h), made in memory.
 #include <cstdint>

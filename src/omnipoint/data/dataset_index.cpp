@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "omnipoint/data/moge_format.h"
+#include "omnipoint/io/staged_folder.h"
 
 namespace omnipoint::data {
 namespace fs = std::filesystem;
@@ -43,7 +44,8 @@ void collect(const fs::path& folder, const fs::path& root, int depth,
   if (depth >= kMaxDatasetDepth) return;
   std::vector<fs::path> children;
   for (const auto& entry : fs::directory_iterator(folder))
-    if (entry.is_directory()) children.push_back(entry.path());
+    if (entry.is_directory() && !io::is_staging_folder(entry.path()))  // not written yet
+      children.push_back(entry.path());
   std::sort(children.begin(), children.end());
   for (const auto& child : children) collect(child, root, depth + 1, out);
 }

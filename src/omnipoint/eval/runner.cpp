@@ -7,12 +7,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
+#include <ostream>
 #include <stdexcept>
 
 #include "omnipoint/camera/camera_info.h"
 #include "omnipoint/data/dataset_index.h"
 #include "omnipoint/geometry/sparse_sampling.h"
+#include "omnipoint/io/atomic_file.h"
 
 namespace omnipoint::eval {
 
@@ -296,6 +299,20 @@ std::string markdown_table(const std::vector<Summary>& summaries) {
       table += row + "\n";
     }
   }
+  return table;
+}
+
+std::string write_run_files(const std::string& folder, const RunResult& result) {
+  const std::filesystem::path out(folder);
+  std::filesystem::create_directories(out);
+  io::write_file_atomically((out / "samples.jsonl").string(), [&](std::ostream& stream) {
+    for (const auto& record : result.records) stream << record << "\n";
+  });
+  io::write_file_atomically((out / "summary.json").string(),
+                            [&](std::ostream& stream) { stream << summary_json(result.summary); });
+  std::string table = markdown_table({result.summary});
+  io::write_file_atomically((out / "table.md").string(),
+                            [&](std::ostream& stream) { stream << table; });
   return table;
 }
 

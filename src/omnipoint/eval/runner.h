@@ -145,4 +145,9 @@ std::string summary_json(const Summary& summary);
 // (points_scale_invariant) and metric δ1 (points_metric), in percent.
 std::string markdown_table(const std::vector<Summary>& summaries);
 
+// A run's files in `folder` (created), each written atomically: samples.jsonl (the records, one
+// a line), summary.json (summary_json) and table.md (markdown_table of the run's summary).
+// Returns the table.
+std::string write_run_files(const std::string& folder, const RunResult& result);
+
 }  // namespace omnipoint::eval

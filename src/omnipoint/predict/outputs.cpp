@@ -15,7 +15,6 @@
 #include <functional>
 #include <mutex>
 #include <ostream>
-#include <random>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -29,6 +28,7 @@
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/ply.h"
+#include "omnipoint/io/staged_folder.h"
 #include "omnipoint/predict/colmap_scene.h"
 #include "omnipoint/predict/preview.h"
 #include "omnipoint/util/threads.h"
@@ -92,12 +92,6 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& output_grou
       {"camera", {"camera.json"}},
   };
   return groups;
-}
-
-std::set<std::string> all_output_files() {
-  std::set<std::string> files;
-  for (const auto& [name, members] : output_groups()) files.insert(members.begin(), members.end());
-  return files;
 }
 
 // A 16-bit PNG of `values` (H, W) metres at `units_per_metre`: 0 outside `valid` and where
@@ -179,6 +173,12 @@ void write_concurrently(const std::vector<std::function<void()>>& jobs) {
 
 }  // namespace
 
+std::set<std::string> all_output_files() {
+  std::set<std::string> files;
+  for (const auto& [name, members] : output_groups()) files.insert(members.begin(), members.end());
+  return files;
+}
+
 std::set<std::string> default_output_files() {
   std::set<std::string> files = all_output_files();
   files.erase("mesh.glb");
@@ -240,129 +240,114 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
           ? image.to(at::kCPU)
           : (image.to(at::kCPU, at::kFloat).clamp(0, 1) * 255).round().to(at::kByte);
 
-  const fs::path target(folder);
-  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  fs::create_directories(parent);
-  std::random_device random;
-  const fs::path staging =
-      parent / ("." + target.filename().string() + ".partial-" + std::to_string(random()));
-  fs::create_directories(staging);
-  try {
-    nlohmann::json json = summary(p);
-    nlohmann::json file_ms = nlohmann::json::object();
-    std::mutex json_mutex;  // the writers run concurrently; json and file_ms are shared
-    const auto record = [&](const auto& update) {
-      const std::lock_guard<std::mutex> lock(json_mutex);
-      update();
-    };
-    // The files are independent, so they are written concurrently (write_concurrently), each
-    // computing what only it needs. Queued roughly longest first, so that the last to finish
-    // is a short one.
-    std::vector<std::function<void()>> jobs;
-    const auto add_job = [&](const char* file, auto write) {
-      jobs.push_back([&, file, write] {
-        const auto file_start = std::chrono::steady_clock::now();
-        write((staging / file).string());
-        const double ms = ms_since(file_start);
-        record([&] { file_ms[file] = ms; });
-      });
-    };
-    const auto produce = [&](const char* file, auto write) {
-      if (wanted(file)) add_job(file, write);
-    };
-    // The valid points, shared by the PLY, the GLB, the preview and the world PLY: made by
-    // whichever of them starts first.
-    geometry::PointCloud valid_cloud;
-    std::once_flag cloud_made;
-    const auto cloud = [&]() -> const geometry::PointCloud& {
-      std::call_once(cloud_made, [&] {
-        const auto cloud_start = std::chrono::steady_clock::now();
-        valid_cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
-        const double ms = ms_since(cloud_start);
-        record([&] { json["timing_ms"]["valid_points"] = ms; });
-      });
-      return valid_cloud;
-    };
-    produce("mesh.glb", [&](const std::string& path) {
-      const at::Tensor kept =
-          p.mask & ~geometry::depth_edge_mask(p.distance, p.mask, options.mesh_edge_rtol);
-      const geometry::GridMesh mesh = geometry::grid_mesh(p.points, kept);
-      io::write_glb_mesh(path, mesh.vertices, rgb.reshape({-1, 3}).index_select(0, mesh.pixels),
-                         mesh.faces);
-      record([&] {
-        json["mesh"] = {{"vertices", mesh.vertices.size(0)},
-                        {"triangles", mesh.faces.size(0)},
-                        {"edge_rtol", options.mesh_edge_rtol}};
-      });
+  io::StagedFolder staged(folder);
+  const fs::path& staging = staged.path();
+  nlohmann::json json = summary(p);
+  nlohmann::json file_ms = nlohmann::json::object();
+  std::mutex json_mutex;  // the writers run concurrently; json and file_ms are shared
+  const auto record = [&](const auto& update) {
+    const std::lock_guard<std::mutex> lock(json_mutex);
+    update();
+  };
+  // The files are independent, so they are written concurrently (write_concurrently), each
+  // computing what only it needs. Queued roughly longest first, so that the last to finish
+  // is a short one.
+  std::vector<std::function<void()>> jobs;
+  const auto add_job = [&](const char* file, auto write) {
+    jobs.push_back([&, file, write] {
+      const auto file_start = std::chrono::steady_clock::now();
+      write((staging / file).string());
+      const double ms = ms_since(file_start);
+      record([&] { file_ms[file] = ms; });
     });
-    produce("normals.npy", [&](const std::string& path) {
-      io::write_npy(path,
-                    geometry::normals_from_point_map(p.points, p.mask).normals.to(at::kFloat));
+  };
+  const auto produce = [&](const char* file, auto write) {
+    if (wanted(file)) add_job(file, write);
+  };
+  // The valid points, shared by the PLY, the GLB, the preview and the world PLY: made by
+  // whichever of them starts first.
+  geometry::PointCloud valid_cloud;
+  std::once_flag cloud_made;
+  const auto cloud = [&]() -> const geometry::PointCloud& {
+    std::call_once(cloud_made, [&] {
+      const auto cloud_start = std::chrono::steady_clock::now();
+      valid_cloud = geometry::valid_points(geometry::make_point_cloud(p.points, rgb, p.mask));
+      const double ms = ms_since(cloud_start);
+      record([&] { json["timing_ms"]["valid_points"] = ms; });
     });
-    produce("points.ply",
-            [&](const std::string& path) { io::write_ply(path, cloud().points, cloud().colors); });
-    const bool world = options.camera_from_world.defined();
-    if (world) {
-      const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
-      json["camera_from_world"] =
-          std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
-      add_job("points_world.ply", [&](const std::string& path) {
-        io::write_ply(path, world_points(cloud().points, options.camera_from_world),
-                      cloud().colors);
-      });
-    }
-    produce("points.glb", [&](const std::string& path) {
-      io::write_glb_points(path, cloud().points, cloud().colors);
+    return valid_cloud;
+  };
+  produce("mesh.glb", [&](const std::string& path) {
+    const at::Tensor kept =
+        p.mask & ~geometry::depth_edge_mask(p.distance, p.mask, options.mesh_edge_rtol);
+    const geometry::GridMesh mesh = geometry::grid_mesh(p.points, kept);
+    io::write_glb_mesh(path, mesh.vertices, rgb.reshape({-1, 3}).index_select(0, mesh.pixels),
+                       mesh.faces);
+    record([&] {
+      json["mesh"] = {{"vertices", mesh.vertices.size(0)},
+                      {"triangles", mesh.faces.size(0)},
+                      {"edge_rtol", options.mesh_edge_rtol}};
     });
-    produce("points.npy",
-            [&](const std::string& path) { io::write_npy(path, p.points.to(at::kFloat)); });
-    produce("rays.npy",
-            [&](const std::string& path) { io::write_npy(path, p.rays.to(at::kFloat)); });
-    produce("depth_vis.png", [&](const std::string& path) {
-      io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
+  });
+  produce("normals.npy", [&](const std::string& path) {
+    io::write_npy(path, geometry::normals_from_point_map(p.points, p.mask).normals.to(at::kFloat));
+  });
+  produce("points.ply",
+          [&](const std::string& path) { io::write_ply(path, cloud().points, cloud().colors); });
+  const bool world = options.camera_from_world.defined();
+  if (world) {
+    const at::Tensor pose = options.camera_from_world.to(at::kCPU, at::kDouble).contiguous();
+    json["camera_from_world"] =
+        std::vector<double>(pose.data_ptr<double>(), pose.data_ptr<double>() + 16);
+    add_job("points_world.ply", [&](const std::string& path) {
+      io::write_ply(path, world_points(cloud().points, options.camera_from_world), cloud().colors);
     });
-    produce("image.png", [&](const std::string& path) { io::write_image_png(path, rgb); });
-    produce("preview.png", [&](const std::string& path) {
-      io::write_image_png(path, render_preview(cloud().points, cloud().colors));
-    });
-    produce("depth.png", [&](const std::string& path) {
-      const Png16 png = quantize_png16(p.depth, p.mask & (p.depth > 0), kDepthPngUnitsPerMetre);
-      io::write_image_png(path, png.codes);
-      const int64_t behind = (p.mask & (p.depth <= 0)).sum().item<int64_t>();
-      record([&] {
-        json["depth_png"] = png16_record("planar depth z", kDepthPngUnitsPerMetre, png);
-        json["depth_png"]["behind_camera_pixels"] = behind;
-      });
-    });
-    produce("distance.png", [&](const std::string& path) {
-      const Png16 png = quantize_png16(p.distance, p.mask, kDistancePngUnitsPerMetre);
-      io::write_image_png(path, png.codes);
-      record([&] {
-        json["distance_png"] = png16_record("radial distance", kDistancePngUnitsPerMetre, png);
-      });
-    });
-    produce("distance.npy",
-            [&](const std::string& path) { io::write_npy(path, p.distance.to(at::kFloat)); });
-    produce("depth.npy",
-            [&](const std::string& path) { io::write_npy(path, p.depth.to(at::kFloat)); });
-    produce("mask.png", [&](const std::string& path) { io::write_image_png(path, p.mask); });
-    write_concurrently(jobs);
-    std::set<std::string> written = options.files;
-    written.insert("camera.json");
-    if (world) written.insert("points_world.ply");
-    json["files"] = written;
-    json["timing_ms"]["files"] = file_ms;  // part of writing
-    json["timing_ms"]["writing"] = ms_since(start);
-    write_text(staging / "camera.json", json.dump(2) + "\n");
-    if (p.fitted_camera)
-      write_text(staging / "cameras.txt", camera::to_cameras_txt(*p.fitted_camera));
-    fs::remove_all(target);
-    fs::rename(staging, target);
-  } catch (...) {
-    std::error_code ignored;
-    fs::remove_all(staging, ignored);
-    throw;
   }
+  produce("points.glb", [&](const std::string& path) {
+    io::write_glb_points(path, cloud().points, cloud().colors);
+  });
+  produce("points.npy",
+          [&](const std::string& path) { io::write_npy(path, p.points.to(at::kFloat)); });
+  produce("rays.npy", [&](const std::string& path) { io::write_npy(path, p.rays.to(at::kFloat)); });
+  produce("depth_vis.png", [&](const std::string& path) {
+    io::write_image_png(path, geometry::colorize_depth(p.distance, p.mask));
+  });
+  produce("image.png", [&](const std::string& path) { io::write_image_png(path, rgb); });
+  produce("preview.png", [&](const std::string& path) {
+    io::write_image_png(path, render_preview(cloud().points, cloud().colors));
+  });
+  produce("depth.png", [&](const std::string& path) {
+    const Png16 png = quantize_png16(p.depth, p.mask & (p.depth > 0), kDepthPngUnitsPerMetre);
+    io::write_image_png(path, png.codes);
+    const int64_t behind = (p.mask & (p.depth <= 0)).sum().item<int64_t>();
+    record([&] {
+      json["depth_png"] = png16_record("planar depth z", kDepthPngUnitsPerMetre, png);
+      json["depth_png"]["behind_camera_pixels"] = behind;
+    });
+  });
+  produce("distance.png", [&](const std::string& path) {
+    const Png16 png = quantize_png16(p.distance, p.mask, kDistancePngUnitsPerMetre);
+    io::write_image_png(path, png.codes);
+    record([&] {
+      json["distance_png"] = png16_record("radial distance", kDistancePngUnitsPerMetre, png);
+    });
+  });
+  produce("distance.npy",
+          [&](const std::string& path) { io::write_npy(path, p.distance.to(at::kFloat)); });
+  produce("depth.npy",
+          [&](const std::string& path) { io::write_npy(path, p.depth.to(at::kFloat)); });
+  produce("mask.png", [&](const std::string& path) { io::write_image_png(path, p.mask); });
+  write_concurrently(jobs);
+  std::set<std::string> written = options.files;
+  written.insert("camera.json");
+  if (world) written.insert("points_world.ply");
+  json["files"] = written;
+  json["timing_ms"]["files"] = file_ms;  // part of writing
+  json["timing_ms"]["writing"] = ms_since(start);
+  write_text(staging / "camera.json", json.dump(2) + "\n");
+  if (p.fitted_camera)
+    write_text(staging / "cameras.txt", camera::to_cameras_txt(*p.fitted_camera));
+  staged.commit();
   return ms_since(start);
 }
 

@@ -31,8 +31,9 @@
 //                   PNGs' scales, notes, warnings and per-stage and per-file timing (writing
 //                   included); `--camera camera.json` reads it back
 //   cameras.txt     the camera as a COLMAP cameras.txt (camera id 1), when there is one
-// The folder appears complete or not at all: everything is written into a temporary sibling
-// folder which is then renamed over `folder` (an older folder of that name is replaced).
+// The folder appears complete or not at all: everything is written into a staging sibling
+// (io::StagedFolder) which is then renamed over `folder` (an older folder of that name is
+// replaced); a run killed midway leaves a staging folder that the next one removes.
 #include <ATen/core/Tensor.h>
 
 #include <set>
@@ -42,6 +43,9 @@
 
 namespace omnipoint::predict {
 
+// Every file above but points_world.ply (which comes with a pose) and cameras.txt (which comes
+// with a camera).
+std::set<std::string> all_output_files();
 // Every file above but mesh.glb (it doubles the size and is asked for by name).
 std::set<std::string> default_output_files();
 

@@ -6,6 +6,7 @@
 
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/safetensors.h"
+#include "omnipoint/io/staged_folder.h"
 
 namespace omnipoint::train {
 namespace {
@@ -33,27 +34,17 @@ void write_text(const std::string& path, const std::string& text) {
 std::string write_checkpoint(const std::string& dir, const TrainState& state,
                              const model::OmniPointConfig& config) {
   const std::string name = step_name(state.progress.at("step").get<int64_t>());
-  const fs::path final_dir = fs::path(dir) / name;
-  const fs::path partial = fs::path(dir) / (name + ".partial");
-  std::error_code error;
-  fs::remove_all(partial, error);
-  fs::create_directories(partial, error);
-  if (error)
-    throw std::runtime_error("checkpoint folder \"" + partial.string() +
-                             "\": cannot create it: " + error.message());
+  io::StagedFolder staged(fs::path(dir) / name);
+  const fs::path& partial = staged.path();
   const auto metadata = model::omnipoint_metadata(config);
   io::write_safetensors((partial / "model.safetensors").string(), state.model, metadata);
   io::write_safetensors((partial / "ema.safetensors").string(), state.ema, metadata);
   io::write_safetensors((partial / "optimizer.safetensors").string(), state.optimizer);
   io::write_safetensors((partial / "rng.safetensors").string(), state.rng);
   write_text((partial / "progress.json").string(), state.progress.dump(2) + "\n");
-  fs::remove_all(final_dir, error);
-  fs::rename(partial, final_dir, error);
-  if (error)
-    throw std::runtime_error("checkpoint folder \"" + final_dir.string() +
-                             "\": cannot rename into place: " + error.message());
+  staged.commit();
   write_text((fs::path(dir) / "latest").string(), name + "\n");
-  return final_dir.string();
+  return staged.destination().string();
 }
 
 std::string resolve_checkpoint(const std::string& path) {

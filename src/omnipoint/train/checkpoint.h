@@ -7,9 +7,9 @@
 //                     rng.safetensors        generator states
 //                     progress.json          step, skipped-step counter, optimiser stage
 //   DIR/latest                               "step_00001000"
-// Writing is atomic: the files go into step_….partial, which is renamed when complete, and
-// only then `latest` is replaced (itself atomically), so a kill at any moment leaves the
-// previous checkpoint intact and referenced.
+// Writing is atomic: the files go into a staging folder (io::StagedFolder), which is renamed
+// when complete, and only then `latest` is replaced (itself atomically), so a kill at any
+// moment leaves the previous checkpoint intact and referenced.
 #include <string>
 
 #include "omnipoint/model/omnipoint_config.h"

@@ -1,4 +1,4 @@
-#include "cli/image_list.h"
+#include "omnipoint/predict/image_list.h"
 
 #include <algorithm>
 #include <map>
@@ -6,7 +6,7 @@
 
 #include "omnipoint/io/image.h"
 
-namespace omnipoint::cli {
+namespace omnipoint::predict {
 
 namespace fs = std::filesystem;
 
@@ -46,4 +46,14 @@ ImageList list_images(const std::vector<std::string>& inputs) {
   return list;
 }
 
-}  // namespace omnipoint::cli
+std::optional<fs::path> per_image_file(const fs::path& folder, const ImageEntry& image,
+                                       const std::vector<std::string>& extensions) {
+  for (const fs::path& stem :
+       {folder / fs::path(image.relative).replace_extension(), folder / image.path.stem()})
+    for (const std::string& extension : extensions)
+      if (fs::path candidate = fs::path(stem) += extension; fs::is_regular_file(candidate))
+        return candidate;
+  return std::nullopt;
+}
+
+}  // namespace omnipoint::predict

@@ -1,0 +1,48 @@
+#include "cli/predict_reports.h"
+
+namespace omnipoint::cli {
+
+void PredictReports::start(const predict::ImageList& images) {
+  progress_.emplace(static_cast<int64_t>(images.images.size()));
+}
+
+void PredictReports::note(const std::string& text) {
+  progress_->line("omnipoint: note: " + text);
+}
+
+void PredictReports::image_started(size_t index, const predict::ImageEntry& image) {
+  progress_->start(static_cast<int64_t>(index), image.relative.string());
+}
+
+void PredictReports::warning(const predict::ImageEntry& image, const std::string& text) {
+  progress_->line("omnipoint: warning: " + progress_->prefix() + image.path.string() + ": " + text);
+}
+
+void PredictReports::image_written(const predict::ImageEntry& image,
+                                   const predict::PredictedImage& predicted) {
+  progress_->line(progress_->prefix() + predict::describe(image, predicted));
+  for (const std::string& note : predicted.prediction.notes) progress_->line("  note: " + note);
+  if (!predicted.prediction.fit_error.empty())
+    progress_->line("  note: no camera fitted: " + predicted.prediction.fit_error);
+}
+
+void PredictReports::image_failed(const predict::ImageEntry& image, const std::string& error) {
+  progress_->line("omnipoint: error: " + progress_->prefix() + "skipped " + image.path.string() +
+                  ": " + error);
+}
+
+void PredictReports::image_done(size_t /*index*/) {
+  progress_->done();
+}
+
+void PredictReports::finished(const predict::PredictJobSummary& summary) {
+  if (!summary.fused_cloud.empty())
+    progress_->line(summary.fused_cloud + ": " + std::to_string(summary.fused_points) +
+                    " points of " + std::to_string(summary.fused_images) +
+                    " images in the reconstruction's world frame");
+  progress_->line(std::to_string(summary.images) + " image(s): " + std::to_string(summary.written) +
+                  " written, " + std::to_string(summary.failed) + " failed, " +
+                  std::to_string(summary.warnings) + " warning(s)");
+}
+
+}  // namespace omnipoint::cli

@@ -1,0 +1,29 @@
+#pragma once
+// What `omnipoint predict` prints while its job runs (predict::PredictJobObserver): each report
+// as a line on stderr around the progress bar (cli/progress.h); an image's lines carry the
+// bar's "[i/N] " on plain output.
+#include <optional>
+#include <string>
+
+#include "cli/progress.h"
+#include "omnipoint/predict/predict_job.h"
+
+namespace omnipoint::cli {
+
+class PredictReports : public predict::PredictJobObserver {
+ public:
+  void start(const predict::ImageList& images) override;
+  void note(const std::string& text) override;
+  void image_started(size_t index, const predict::ImageEntry& image) override;
+  void warning(const predict::ImageEntry& image, const std::string& text) override;
+  void image_written(const predict::ImageEntry& image,
+                     const predict::PredictedImage& predicted) override;
+  void image_failed(const predict::ImageEntry& image, const std::string& error) override;
+  void image_done(size_t index) override;
+  void finished(const predict::PredictJobSummary& summary) override;
+
+ private:
+  std::optional<Progress> progress_;
+};
+
+}  // namespace omnipoint::cli
