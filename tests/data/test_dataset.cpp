@@ -38,7 +38,7 @@ TEST(Dataset, SampleFoldersInNameOrderWithoutPartialOnes) {
   const fs::path root = test::fresh_process_dir("omnipoint_dataset_folders");
   write_object_sample(root / "b", 2);
   write_object_sample(root / "a", 1);
-  write_object_sample(root / "c.partial", 3);  // still being written
+  write_object_sample(root / ".c.partial-Xy12z9", 3);  // still being written (io/staged_folder.h)
   const std::unique_ptr<Dataset> dataset = open_dataset("folders", {root.string()});
   ASSERT_EQ(dataset->size(), 2);
   EXPECT_EQ(dataset->item_name({0, 0}), (root / "a").string());
