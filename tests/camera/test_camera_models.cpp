@@ -3,6 +3,9 @@
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
+#include <set>
+#include <string>
+
 #include "camera/sample_cameras.h"
 #include "omnipoint/camera/camera.h"
 
@@ -121,6 +124,16 @@ TEST_P(CameraModelTest, SpecJsonAndBatchShapes) {
 
 INSTANTIATE_TEST_SUITE_P(AllModels, CameraModelTest,
                          ::testing::ValuesIn(testing::sample_camera_specs()), test_name);
+
+// The typed tests above reach a model only through its sample: a registered model without one
+// (step 3 of "How to add a model", camera_model.h) would go untested.
+TEST(CameraModels, EveryRegisteredModelHasASampleCamera) {
+  std::set<std::string> sampled;
+  for (const std::string& spec : testing::sample_camera_specs())
+    sampled.insert(parse_camera(spec).model_name());
+  for (const std::string& name : camera_model_names())
+    EXPECT_EQ(sampled.count(name), 1U) << name << " has no sample in sample_cameras.h";
+}
 
 }  // namespace
 }  // namespace omnipoint::camera

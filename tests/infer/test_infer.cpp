@@ -74,6 +74,10 @@ TEST(Infer, MetricPostAlignmentRescalesToTheSparseDepth) {
   const Result out = run(network, inputs);
   // Item 0: samples at 3× the predicted metric distance; item 1: none.
   const at::Tensor metric_distance = out.metric_scale.view({2, 1, 1}) * out.distance;
+  // The shipped map carries the metric distance, zero outside its mask.
+  ASSERT_GT(out.shipped.mask.sum().item<int64_t>(), 0);
+  EXPECT_TRUE(at::equal(out.shipped.distance, at::where(out.shipped.mask, metric_distance,
+                                                        at::zeros_like(metric_distance))));
   const at::Tensor keep = at::rand({2, 30, 40}) < 0.02;
   at::Tensor sparse = at::where(keep, 3.0 * metric_distance, at::zeros_like(metric_distance));
   sparse[1].zero_();
@@ -84,8 +88,9 @@ TEST(Infer, MetricPostAlignmentRescalesToTheSparseDepth) {
               1e-5);
   EXPECT_NEAR(aligned.alignment_factor[0].item<double>(), 3.0, 1e-5);
   EXPECT_EQ(aligned.metric_scale[1].item<double>(), out.metric_scale[1].item<double>());
-  EXPECT_LT((aligned.points[0] - 3.0 * out.points[0]).abs().max().item<double>(), 1e-4);
-  EXPECT_TRUE(at::equal(aligned.points[1], out.points[1]));
+  EXPECT_LT((aligned.shipped.points[0] - 3.0 * out.shipped.points[0]).abs().max().item<double>(),
+            1e-4);
+  EXPECT_TRUE(at::equal(aligned.shipped.points[1], out.shipped.points[1]));
   EXPECT_EQ(aligned.sparse_samples[1].item<int64_t>(), 0);
   inputs.sparse_distance = sparse.narrow(1, 0, 10);
   EXPECT_THROW(run(network, inputs), std::invalid_argument);

@@ -30,7 +30,7 @@ struct ColmapScene {
 };
 
 // COLMAP's model id of a name (sensor/models.h). Written out here rather than taken from the
-// reader's table (io/colmap.cpp): the test files must not inherit a mistake in it.
+// reader's table (io/colmap_binary.cpp): the test files must not inherit a mistake in it.
 inline int32_t colmap_model_id(const std::string& model) {
   static const char* const names[] = {"SIMPLE_PINHOLE",
                                       "PINHOLE",

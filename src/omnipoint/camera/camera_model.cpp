@@ -114,15 +114,20 @@ at::Tensor all_finite(const at::Tensor& v) {
   return finite;
 }
 
+void require_param(const CameraModel& model, const std::string& name, double value, bool ok,
+                   const std::string& expected) {
+  if (ok) return;
+  std::ostringstream text;
+  text.precision(17);
+  text << model.name() << ": " << name << " must be " << expected << ", got " << value;
+  throw std::invalid_argument(text.str());
+}
+
 void check_focal_positive(const CameraModel& model, const std::vector<double>& params) {
   const auto names = model.param_names();
   for (std::size_t i = 0; i < names.size() && i < params.size(); ++i) {
-    if ((names[i] == "f" || names[i] == "fx" || names[i] == "fy") && !(params[i] > 0)) {
-      std::ostringstream text;
-      text.precision(17);
-      text << model.name() << ": focal length " << names[i] << " must be > 0, got " << params[i];
-      throw std::invalid_argument(text.str());
-    }
+    if (names[i] == "f" || names[i] == "fx" || names[i] == "fy")
+      require_param(model, "focal length " + names[i], params[i], params[i] > 0, "> 0");
   }
 }
 

@@ -7,7 +7,9 @@
 //   the centre of pixel (col i, row j) is (i + 0.5, j + 0.5). OpenCV's cx, cy are ours - 0.5.
 // - Parameters: COLMAP's names and order (`param_names()`), e.g. OPENCV = fx fy cx cy k1 k2
 //   p1 p2. Focal lengths and principal points are in pixels; distortion acts on normalised
-//   coordinates, so it does not change when the image is resized.
+//   coordinates, so it does not change when the image is resized. The formulas name the
+//   parameters as `param_names()` does (`const auto k1 = params[4];`, COLMAP's style); the
+//   intrinsics come by name from `focal_principal`.
 // - Batching: `project`/`unproject` take any leading shape (..., 3) / (..., 2), run on the
 //   dtype and device of their input (`params` is a 1-D tensor with that dtype and device),
 //   and never produce NaN: where a model is undefined the result is zero and valid = false.
@@ -16,7 +18,8 @@
 // 1. Write `<name>.cpp` with a class deriving from CameraModel (or DistortedPinholeModel in
 //    distorted_pinhole.h when the model is "pinhole + distortion of normalised coordinates",
 //    which then only needs `distort`). Give it closed forms where they exist; otherwise
-//    invert with `solve_2d` (solve.h). Override `check_params` for the model's rules, and
+//    invert with `solve_2d` (solve.h). Override `check_params` for the model's rules (with
+//    `check_focal_positive` and `require_param`, which word the errors alike), and
 //    `scaled_params`/`cropped_params`/`initial_params` only when the parameter layout is not
 //    "f|fx fy, cx cy, then dimensionless parameters".
 // 2. End the file with an accessor `const CameraModel& <name>_model()` returning a static
@@ -108,6 +111,9 @@ at::Tensor rays_from_plane(const at::Tensor& normalised);
 at::Tensor squared_length(const at::Tensor& v);  // (...): sum of squares
 at::Tensor length(const at::Tensor& v);          // (...): Euclidean length
 at::Tensor all_finite(const at::Tensor& v);      // (...) bool
+// Throws std::invalid_argument "<MODEL>: <name> must be <expected>, got <value>" unless ok.
+void require_param(const CameraModel& model, const std::string& name, double value, bool ok,
+                   const std::string& expected);
 // Throws std::invalid_argument unless the focal lengths are > 0.
 void check_focal_positive(const CameraModel& model, const std::vector<double>& params);
 

@@ -111,10 +111,15 @@ std::vector<at::Tensor> EquidistantFisheyeModel::radial_coefficients(
   return k;
 }
 
-double EquidistantFisheyeModel::theta_max(const std::vector<double>& params) const {
+std::vector<double> EquidistantFisheyeModel::radial_coefficients(
+    const std::vector<double>& params) const {
   std::vector<double> k;
   for (const int index : radial_indices()) k.push_back(params[index]);
-  return theta_limit(k);
+  return k;
+}
+
+double EquidistantFisheyeModel::theta_max(const std::vector<double>& params) const {
+  return theta_limit(radial_coefficients(params));
 }
 
 at::Tensor EquidistantFisheyeModel::distort(const at::Tensor& params,
@@ -153,18 +158,13 @@ Pixels EquidistantFisheyeModel::project(const at::Tensor& params, ImageSize,
 
 Rays EquidistantFisheyeModel::unproject(const at::Tensor& params, ImageSize,
                                         const at::Tensor& pixels) const {
-  const auto host = host_values(params);
-  const double limit = theta_max(host);
-  std::vector<double> k_host;
-  for (const int index : radial_indices()) k_host.push_back(host[index]);
+  const std::vector<double> k_host = radial_coefficients(host_values(params));
+  const double limit = theta_limit(k_host);
   const double radius_max = distorted_theta(limit, k_host);
 
   const auto params64 = params.detach().to(at::kDouble);
   const auto k = radial_coefficients(params64);
-  auto normalised =
-      normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-  const auto finite = all_finite(normalised);
-  normalised = at::where(finite.unsqueeze(-1), normalised, at::zeros_like(normalised));
+  const auto [normalised, finite] = normalise_finite_pixels(*this, params64, pixels);
 
   // The radial inverse: exact for radial models, the starting point otherwise.
   const auto radius = length(normalised);

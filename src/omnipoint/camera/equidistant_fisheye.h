@@ -56,8 +56,9 @@ class EquidistantFisheyeModel : public CameraModel {
   double theta_max(const std::vector<double>& params) const;
 
  protected:
-  // The radial coefficients as 0-d tensors of `params`.
+  // The radial coefficients as 0-d tensors of `params`, or as host values.
   std::vector<at::Tensor> radial_coefficients(const at::Tensor& params) const;
+  std::vector<double> radial_coefficients(const std::vector<double>& params) const;
 };
 
 }  // namespace omnipoint::camera

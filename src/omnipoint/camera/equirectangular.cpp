@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "omnipoint/camera/camera_model.h"
+#include "omnipoint/camera/lens_helpers.h"
 
 namespace omnipoint::camera {
 namespace {
@@ -26,10 +27,7 @@ Bounds bounds_of(const std::vector<double>& params) {
 }
 
 Bounds bounds_of(const at::Tensor& params) {
-  if (params.numel() == 0) return bounds_of(std::vector<double>{});
-  const auto host = params.to(at::kCPU, at::kDouble).contiguous();
-  const double* p = host.data_ptr<double>();
-  return {p[0], p[1], p[2], p[3]};
+  return bounds_of(host_values(params));
 }
 
 class EquirectangularModel final : public CameraModel {

@@ -5,8 +5,6 @@
 #include <ATen/ATen.h>
 
 #include <cmath>
-#include <sstream>
-#include <stdexcept>
 
 #include "omnipoint/camera/distorted_pinhole.h"
 
@@ -25,12 +23,8 @@ class FovModel final : public CameraModel {
 
   void check_params(const std::vector<double>& params, ImageSize) const override {
     check_focal_positive(*this, params);
-    if (!(params[4] >= 0 && params[4] < M_PI)) {
-      std::ostringstream text;
-      text.precision(17);
-      text << "FOV: omega must be in [0, pi) radians, got " << params[4];
-      throw std::invalid_argument(text.str());
-    }
+    const double omega = params[4];
+    require_param(*this, "omega", omega, omega >= 0 && omega < M_PI, "in [0, pi) radians");
   }
 
   Pixels project(const at::Tensor& params, ImageSize, const at::Tensor& points) const override {

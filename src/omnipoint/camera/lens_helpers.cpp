@@ -3,8 +3,6 @@
 #include <ATen/ATen.h>
 
 #include <limits>
-#include <sstream>
-#include <stdexcept>
 
 namespace omnipoint::camera {
 
@@ -14,13 +12,12 @@ std::vector<double> host_values(const at::Tensor& params) {
   return std::vector<double>(data, data + values.numel());
 }
 
-void require_param(const CameraModel& model, const std::string& name, double value, bool ok,
-                   const std::string& expected) {
-  if (ok) return;
-  std::ostringstream text;
-  text.precision(17);
-  text << model.name() << ": " << name << " must be " << expected << ", got " << value;
-  throw std::invalid_argument(text.str());
+NormalisedPixels normalise_finite_pixels(const CameraModel& model, const at::Tensor& params64,
+                                         const at::Tensor& pixels) {
+  const auto normalised =
+      normalise_pixels(focal_principal(model, params64), pixels.detach().to(at::kDouble));
+  const auto finite = all_finite(normalised);
+  return {at::where(finite.unsqueeze(-1), normalised, at::zeros_like(normalised)), finite};
 }
 
 double fold_slack(at::ScalarType dtype) {

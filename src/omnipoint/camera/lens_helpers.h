@@ -1,6 +1,5 @@
 #pragma once
-// Small pieces shared by the fisheye and unified models (equidistant_fisheye.h, unified.h).
-#include <string>
+// Small pieces shared by the fisheye, unified and equirectangular models.
 #include <vector>
 
 #include "omnipoint/camera/camera_model.h"
@@ -11,9 +10,15 @@ namespace omnipoint::camera {
 // The values of a 1-D parameter tensor, on the host as doubles.
 std::vector<double> host_values(const at::Tensor& params);
 
-// Throws std::invalid_argument "<MODEL>: <name> must be <expected>, got <value>" unless ok.
-void require_param(const CameraModel& model, const std::string& name, double value, bool ok,
-                   const std::string& expected);
+// Pixels (..., 2) -> normalised coordinates in float64 with the intrinsics of `params64` (a
+// float64 parameter tensor), zero where not finite: the start of the unprojections that
+// compute in float64.
+struct NormalisedPixels {
+  at::Tensor normalised;  // (..., 2) float64
+  at::Tensor finite;      // (...) bool
+};
+NormalisedPixels normalise_finite_pixels(const CameraModel& model, const at::Tensor& params64,
+                                         const at::Tensor& pixels);
 
 // Relative slack of the tests against a lens's fold (the boundary where a model stops being
 // injective at a finite pixel radius): a ray or pixel on the fold itself must pass both ways

@@ -28,9 +28,13 @@ class OpenCVModel final : public DistortedPinholeModel {
     return {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"};
   }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
+    const auto k1 = params[4];
+    const auto k2 = params[5];
+    const auto p1 = params[6];
+    const auto p2 = params[7];
     const auto r2 = squared_length(u).unsqueeze(-1);
-    const auto radial = 1 + r2 * (params[4] + params[5] * r2);
-    return radial_tangential(u, radial, params[6], params[7]);
+    const auto radial = 1 + r2 * (k1 + k2 * r2);
+    return radial_tangential(u, radial, p1, p2);
   }
 };
 
@@ -41,10 +45,18 @@ class FullOpenCVModel final : public DistortedPinholeModel {
     return {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
   }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
+    const auto k1 = params[4];
+    const auto k2 = params[5];
+    const auto p1 = params[6];
+    const auto p2 = params[7];
+    const auto k3 = params[8];
+    const auto k4 = params[9];
+    const auto k5 = params[10];
+    const auto k6 = params[11];
     const auto r2 = squared_length(u).unsqueeze(-1);
-    const auto numerator = 1 + r2 * (params[4] + r2 * (params[5] + r2 * params[8]));
-    const auto denominator = 1 + r2 * (params[9] + r2 * (params[10] + r2 * params[11]));
-    return radial_tangential(u, numerator / denominator, params[6], params[7]);
+    const auto numerator = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    const auto denominator = 1 + r2 * (k4 + r2 * (k5 + r2 * k6));
+    return radial_tangential(u, numerator / denominator, p1, p2);
   }
 };
 

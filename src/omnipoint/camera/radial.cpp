@@ -12,8 +12,9 @@ class SimpleRadialModel final : public DistortedPinholeModel {
   std::string name() const override { return "SIMPLE_RADIAL"; }
   std::vector<std::string> param_names() const override { return {"f", "cx", "cy", "k"}; }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
+    const auto k = params[3];
     const auto r2 = squared_length(u).unsqueeze(-1);
-    return u * (1 + params[3] * r2);
+    return u * (1 + k * r2);
   }
 };
 
@@ -22,8 +23,10 @@ class RadialModel final : public DistortedPinholeModel {
   std::string name() const override { return "RADIAL"; }
   std::vector<std::string> param_names() const override { return {"f", "cx", "cy", "k1", "k2"}; }
   at::Tensor distort(const at::Tensor& params, const at::Tensor& u) const override {
+    const auto k1 = params[3];
+    const auto k2 = params[4];
     const auto r2 = squared_length(u).unsqueeze(-1);
-    return u * (1 + r2 * (params[3] + params[4] * r2));
+    return u * (1 + r2 * (k1 + k2 * r2));
   }
 };
 

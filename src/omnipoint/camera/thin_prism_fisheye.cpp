@@ -22,14 +22,17 @@ class ThinPrismFisheyeModel final : public EquidistantFisheyeModel {
   std::vector<std::string> param_names() const override {
     return {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "sx1", "sy1"};
   }
-  std::vector<int> radial_indices() const override { return {4, 5, 8, 9}; }
+  std::vector<int> radial_indices() const override { return {4, 5, 8, 9}; }  // k1 k2 k3 k4
   bool radial_only() const override { return false; }
 
   at::Tensor distort(const at::Tensor& params, const at::Tensor& e) const override {
+    const auto p1 = params[6];
+    const auto p2 = params[7];
+    const auto sx1 = params[10];
+    const auto sy1 = params[11];
     const auto theta2 = squared_length(e).unsqueeze(-1);
-    const auto prism = at::stack({params[10], params[11]}) * theta2;
-    return EquidistantFisheyeModel::distort(params, e) +
-           tangential_distortion(e, params[6], params[7]) + prism;
+    const auto prism = at::stack({sx1, sy1}) * theta2;
+    return EquidistantFisheyeModel::distort(params, e) + tangential_distortion(e, p1, p2) + prism;
   }
 };
 
@@ -40,15 +43,22 @@ class RadTanThinPrismFisheyeModel final : public EquidistantFisheyeModel {
     return {"fx", "fy", "cx", "cy", "k0", "k1", "k2", "k3",
             "k4", "k5", "p0", "p1", "s0", "s1", "s2", "s3"};
   }
-  std::vector<int> radial_indices() const override { return {4, 5, 6, 7, 8, 9}; }
+  std::vector<int> radial_indices() const override {
+    return {4, 5, 6, 7, 8, 9};  // k0 k1 k2 k3 k4 k5
+  }
   bool radial_only() const override { return false; }
 
   at::Tensor distort(const at::Tensor& params, const at::Tensor& e) const override {
+    const auto p0 = params[10];
+    const auto p1 = params[11];
+    const auto s0 = params[12];
+    const auto s1 = params[13];
+    const auto s2 = params[14];
+    const auto s3 = params[15];
     const auto g = EquidistantFisheyeModel::distort(params, e);
     const auto rho2 = squared_length(g).unsqueeze(-1);
-    const auto prism = at::stack({params[12], params[14]}) * rho2 +
-                       at::stack({params[13], params[15]}) * rho2 * rho2;
-    return g + tangential_distortion(g, params[11], params[10]) + prism;
+    const auto prism = at::stack({s0, s2}) * rho2 + at::stack({s1, s3}) * rho2 * rho2;
+    return g + tangential_distortion(g, p1, p0) + prism;
   }
 };
 

@@ -64,8 +64,12 @@ class EnhancedUnifiedModel final : public CameraModel {
 
   void check_params(const std::vector<double>& params, ImageSize) const override {
     check_focal_positive(*this, params);
-    require_param(*this, "alpha", params[4], params[4] >= 0 && params[4] <= 1, "in [0, 1]");
-    if (has_beta_) require_param(*this, "beta", params[5], params[5] > 0, "> 0");
+    const double alpha = params[4];
+    require_param(*this, "alpha", alpha, alpha >= 0 && alpha <= 1, "in [0, 1]");
+    if (has_beta_) {
+      const double beta = params[5];
+      require_param(*this, "beta", beta, beta > 0, "> 0");
+    }
   }
 
   std::vector<double> initial_params(double fx, double fy, double cx, double cy,
@@ -73,8 +77,8 @@ class EnhancedUnifiedModel final : public CameraModel {
     // α = 0.5 (β = 1) projects every direction but the backward axis, so fitting sees all
     // rays of a wide lens from the start; near the axis it matches the pinhole guess.
     auto params = CameraModel::initial_params(fx, fy, cx, cy, size);
-    params[4] = 0.5;
-    if (has_beta_) params[5] = 1.0;
+    params[4] = 0.5;                 // alpha
+    if (has_beta_) params[5] = 1.0;  // beta
     return params;
   }
 
@@ -95,9 +99,7 @@ class EnhancedUnifiedModel final : public CameraModel {
   Rays unproject(const at::Tensor& params, ImageSize, const at::Tensor& pixels) const override {
     const double alpha = host_values(params)[4];
     const auto params64 = params.detach().to(at::kDouble);
-    auto m = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-    const auto finite = all_finite(m);
-    m = at::where(finite.unsqueeze(-1), m, at::zeros_like(m));
+    const auto [m, finite] = normalise_finite_pixels(*this, params64, pixels);
     const auto depth = eucm_plane_depth(squared_length(m), alpha, beta(params64),
                                         fold_slack(pixels.scalar_type()));
     auto rays = at::cat({m, depth.mz.unsqueeze(-1)}, -1);
@@ -108,6 +110,7 @@ class EnhancedUnifiedModel final : public CameraModel {
   }
 
  private:
+  // β: EUCM's parameter, 1 for UCM.
   at::Tensor beta(const at::Tensor& params) const {
     return has_beta_ ? params[5] : at::ones({}, params.options());
   }
@@ -130,15 +133,17 @@ class DoubleSphereModel final : public CameraModel {
 
   void check_params(const std::vector<double>& params, ImageSize) const override {
     check_focal_positive(*this, params);
-    require_param(*this, "xi", params[4], params[4] > -1 && params[4] < 1, "in (-1, 1)");
-    require_param(*this, "alpha", params[5], params[5] >= 0 && params[5] <= 1, "in [0, 1]");
+    const double xi = params[4];
+    const double alpha = params[5];
+    require_param(*this, "xi", xi, xi > -1 && xi < 1, "in (-1, 1)");
+    require_param(*this, "alpha", alpha, alpha >= 0 && alpha <= 1, "in [0, 1]");
   }
 
   std::vector<double> initial_params(double fx, double fy, double cx, double cy,
                                      ImageSize size) const override {
     // ξ = 0, α = 0.5: UCM's start (see EnhancedUnifiedModel::initial_params).
     auto params = CameraModel::initial_params(fx, fy, cx, cy, size);
-    params[5] = 0.5;
+    params[5] = 0.5;  // alpha
     return params;
   }
 
@@ -160,13 +165,11 @@ class DoubleSphereModel final : public CameraModel {
   Rays unproject(const at::Tensor& params, ImageSize, const at::Tensor& pixels) const override {
     const double alpha = host_values(params)[5];
     const auto params64 = params.detach().to(at::kDouble);
-    auto m = normalise_pixels(focal_principal(*this, params64), pixels.detach().to(at::kDouble));
-    const auto finite = all_finite(m);
-    m = at::where(finite.unsqueeze(-1), m, at::zeros_like(m));
+    const auto xi = params64[4];
+    const auto [m, finite] = normalise_finite_pixels(*this, params64, pixels);
     const double slack = fold_slack(pixels.scalar_type());
     const auto depth = eucm_plane_depth(squared_length(m), alpha, at::ones({}, m.options()), slack);
-    const auto lifted =
-        lift_to_shifted_sphere(at::cat({m, depth.mz.unsqueeze(-1)}, -1), params64[4], slack);
+    const auto lifted = lift_to_shifted_sphere(at::cat({m, depth.mz.unsqueeze(-1)}, -1), xi, slack);
     const auto valid = finite & depth.valid & lifted.valid & all_finite(lifted.rays);
     return {at::where(valid.unsqueeze(-1), lifted.rays, at::zeros_like(lifted.rays))
                 .to(pixels.scalar_type()),

@@ -41,7 +41,7 @@ Predictor network_predictor(infer::Network network, const std::string& name, int
     // Distances of a relative (non-metric) sample carry no metric scale to align to.
     inputs.align_to_sparse_depth = item.sample.metric;
     const infer::Result result = infer::run(network, inputs);
-    const infer::PointMap shipped = infer::point_map(result);
+    const infer::PointMap& shipped = result.shipped;
     GeometryPrediction prediction;
     prediction.rays = shipped.rays[0].to(at::kCPU, at::kFloat);
     prediction.distance =

@@ -123,8 +123,11 @@ Network load_network(const std::string& path, at::Device device) {
   }
 }
 
-Result run(const Network& network, const Inputs& inputs) {
-  c10::InferenceMode inference;
+namespace {
+
+// run() up to the metric scale: the network (under the precision's autocast) and the
+// alignment.
+Result run_network(const Network& network, const Inputs& inputs) {
   const at::Tensor& given = inputs.images;
   if (!given.defined() || given.dim() != 4 || given.size(1) != 3 || given.size(2) < 1 ||
       given.size(3) < 1)
@@ -204,7 +207,17 @@ Result run(const Network& network, const Inputs& inputs) {
   }
   result.timing.alignment_ms = ms_since(start);
   result.metric_scale = scale;
-  result.points = (scale.view({batch, 1, 1}) * result.distance).unsqueeze(-1) * result.rays;
+  return result;
+}
+
+}  // namespace
+
+Result run(const Network& network, const Inputs& inputs) {
+  c10::InferenceMode inference;
+  Result result = run_network(network, inputs);
+  // Outside the network's autocast: the shipped geometry is computed in fp32.
+  const at::Tensor scale = result.metric_scale.view({result.metric_scale.size(0), 1, 1});
+  result.shipped = point_map(result.rays, scale * result.distance, result.mask);
   return result;
 }
 
@@ -216,11 +229,6 @@ PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at:
   map.distance = at::where(map.mask, distance, at::zeros_like(distance));
   map.points = geometry::points_from_rays(map.rays, map.distance);
   return map;
-}
-
-PointMap point_map(const Result& result) {
-  const at::Tensor scale = result.metric_scale.view({result.metric_scale.size(0), 1, 1});
-  return point_map(result.rays, scale * result.distance, result.mask);
 }
 
 RawOutput forward(const Network& network, const at::Tensor& images, int64_t num_tokens,

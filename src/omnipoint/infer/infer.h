@@ -83,14 +83,27 @@ struct Timings {
   double alignment_ms = 0;  // the metric alignment to the sparse depth
 };
 
+// The geometry a prediction ships (predict::Prediction, and so what eval scores), any leading
+// dimensions: a pixel is valid where the mask holds, the distance is finite and positive and
+// the ray is a unit ray; distance and points are zero elsewhere, non-finite rays zero.
+struct PointMap {
+  at::Tensor rays;      // (..., 3)
+  at::Tensor distance;  // (...) metric radial distance
+  at::Tensor points;    // (..., 3) distance · rays
+  at::Tensor mask;      // (...) bool
+};
+PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask);
+
 // On the network's device, in the layout of the rays (B, H, W, ...).
 struct Result {
   at::Tensor rays;          // (B, H, W, 3) unit rays (the given camera's, else predicted)
   at::Tensor distance;      // (B, H, W) scale-invariant: metric_scale · distance is metric
   at::Tensor mask;          // (B, H, W) bool: the network's mask (and the camera's domain)
   at::Tensor metric_scale;  // (B) after the alignment; 1 without a scale head
-  at::Tensor points;        // (B, H, W, 3) metric_scale · distance · rays, every pixel
-  bool metric = false;      // whether the points are metres (a scale head, or aligned)
+  // What predict ships and eval scores: metric_scale · distance along the rays, under the
+  // mask (point_map), computed once here.
+  PointMap shipped;
+  bool metric = false;      // whether the shipped points are metres (a scale head, or aligned)
   bool multi_view = false;  // MoGe-2 on a wide camera
   // The sparse-depth alignment: the factor applied to the network's metric scale (1 where
   // not aligned) and the samples it used (sparse samples where the mask holds).
@@ -102,19 +115,6 @@ struct Result {
 };
 
 Result run(const Network& network, const Inputs& inputs);
-
-// The geometry a prediction ships (predict::Prediction, and so what eval scores), any leading
-// dimensions: a pixel is valid where the mask holds, the distance is finite and positive and
-// the ray is a unit ray; distance and points are zero elsewhere, non-finite rays zero.
-struct PointMap {
-  at::Tensor rays;      // (..., 3)
-  at::Tensor distance;  // (...) metric radial distance
-  at::Tensor points;    // (..., 3) distance · rays
-  at::Tensor mask;      // (...) bool
-};
-PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at::Tensor& mask);
-// A run's: metric_scale · distance along its rays, under its mask.
-PointMap point_map(const Result& result);
 
 // The raw outputs of one forward pass without conditions (`omnipoint forward`): points
 // (B, H, W, 3) (OmniPoint: metric; MoGe-2: its affine point map), mask (B, H, W) probability,

@@ -208,7 +208,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
   notes.insert(notes.end(), result.notes.begin(), result.notes.end());
 
   // Camera fit and packaging: to the CPU once, then per image.
-  const infer::PointMap shipped = infer::point_map(result);
+  const infer::PointMap& shipped = result.shipped;
   const at::Tensor rays = shipped.rays.to(at::kCPU, at::kFloat),
                    distance = shipped.distance.to(at::kCPU, at::kFloat),
                    points = shipped.points.to(at::kCPU, at::kFloat),
