@@ -37,6 +37,7 @@ using nlohmann::json;
 
 struct TrainOptions {
   std::string config_path;
+  std::vector<std::string> overrides;  // --set key.path=value
   std::string resume;
   int64_t stop_after = 0;  // 0: run to the end
   int64_t nproc = 1;       // > 1: launch that many local ranks
@@ -77,7 +78,7 @@ void append_line(const std::string& path, const json& record) {
 
 void run_train(const TrainOptions& options) {
   const train::TrainConfig config =
-      train::TrainConfig::from_text(io::read_file(options.config_path), options.config_path);
+      train::TrainConfig::load(options.config_path, options.overrides);
   if (options.curves_only) {
     const fs::path out_dir(config.output_dir);
     if (!fs::exists(out_dir / "log.jsonl"))
@@ -101,7 +102,7 @@ void run_train(const TrainOptions& options) {
   // RANK, WORLD_SIZE, ... from a launcher (docs/TRAINING.md); a single process without them.
   // NCCL between GPUs where the config trains on them, Gloo otherwise.
   train::DistributedOptions distributed_options;
-  distributed_options.cuda = config.device == "cuda";
+  distributed_options.cuda = config.device == train::TrainDevice::kCuda;
   const train::DistributedContext distributed =
       train::DistributedContext::from_environment(distributed_options);
   train::Trainer trainer(config, network, distributed);
@@ -189,6 +190,12 @@ void add_train_command(CLI::App& app) {
       "Train an OmniPoint model from a JSON config (stages, data, losses, optimiser); "
       "checkpoints and log.jsonl go to the config's output_dir");
   command->add_option("--config", options->config_path, "Training config (.json)")->required();
+  command
+      ->add_option("--set", options->overrides,
+                   "Override a config key, KEY.PATH=VALUE (repeatable; VALUE as JSON, else a "
+                   "string), e.g. --set stages[0].steps=2000 --set output_dir=runs/b")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   command->add_option(
       "--resume", options->resume,
       "Continue from a checkpoint: a run's output_dir, its checkpoints/ folder or one step folder");
@@ -211,6 +218,8 @@ void add_train_command(CLI::App& app) {
     if (options->nproc == 1 || options->curves_only || std::getenv("WORLD_SIZE") != nullptr)
       return run_train(*options);
     std::vector<std::string> arguments{"train", "--config", options->config_path};
+    for (const std::string& assignment : options->overrides)
+      arguments.insert(arguments.end(), {"--set", assignment});
     if (!options->resume.empty()) arguments.insert(arguments.end(), {"--resume", options->resume});
     if (options->stop_after > 0)
       arguments.insert(arguments.end(), {"--stop-after", std::to_string(options->stop_after)});

@@ -1,5 +1,4 @@
 #include "omnipoint/train/batch_source.h"
-#include "omnipoint/io/camera_file.h"
 
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
@@ -193,10 +192,10 @@ TrainingBatch BatchSource::batch(int64_t step, bool conditions, int64_t rank, in
     const data::Sample loaded = [&] {
       if (dataset.synth) {
         const SynthSource& synth = dataset.synth_source;
-        const auto kind = data::synth::parse_scene_kind(
-            synth.scenes[random.integer(0, static_cast<int>(synth.scenes.size()) - 1)]);
-        camera::Camera camera = io::read_camera(
-            synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)]);
+        const data::synth::SceneKind kind =
+            synth.scenes[random.integer(0, static_cast<int>(synth.scenes.size()) - 1)];
+        camera::Camera camera =
+            synth.cameras[random.integer(0, static_cast<int>(synth.cameras.size()) - 1)];
         if (camera.width() != width || camera.height() != height)
           camera = camera.resized(width, height);
         return data::synth::synthesize(kind, random.next_u64(), camera).sample;
