@@ -48,7 +48,6 @@ const json& empty_object() {
 }
 
 bool is_null(const json& value) { return value.is_null(); }
-bool is_object(const json& value) { return value.is_object(); }
 
 std::string short_text(const json& value) {
   std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);

@@ -88,7 +88,6 @@ using EnumNames = std::vector<std::pair<std::string, E>>;
 namespace config_json {
 const nlohmann::json& empty_object();
 bool is_null(const nlohmann::json& json);
-bool is_object(const nlohmann::json& json);
 // The array's entries (ConfigError "expected an array" otherwise).
 std::size_t array_size(const nlohmann::json& json, const ConfigScope& scope);
 const nlohmann::json& array_item(const nlohmann::json& json, std::size_t index);
@@ -236,10 +235,6 @@ class ConfigTable {
       return check([min](const V& v) { return v >= min; },
                    "must be at least " + config_bound(min));
     }
-    Member& at_most(V max) {
-      return check([max](const V& v) { return v <= max; },
-                   "must be at most " + config_bound(max));
-    }
     Member& positive() {
       return check([](const V& v) { return v > V{}; }, "must be positive");
     }
@@ -347,8 +342,6 @@ class ConfigTable {
   void exactly_one_of(std::vector<std::string> keys) { exclusive_.push_back(std::move(keys)); }
   // Unknown keys pass silently (MoGe-2's sections: its constructors take **deprecated_kwargs).
   void ignore_unknown_keys() { ignore_unknown_ = true; }
-
-  const std::vector<Field>& fields() const { return fields_; }
 
   // Converts `json` (an object) into `value`, whose members stand for the absent keys; no
   // checks beyond the conversions (see check()).
