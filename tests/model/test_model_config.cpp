@@ -17,8 +17,8 @@ namespace {
 using nlohmann::json;
 
 json moge2_fixture_config() {
-  const io::SafetensorsFile file = io::read_safetensors(
-      std::string(OMNIPOINT_FIXTURE_DIR) + "/moge2_forward_a/model.safetensors");
+  const io::SafetensorsFile file = io::read_safetensors(std::string(OMNIPOINT_FIXTURE_DIR) +
+                                                        "/moge2_forward_a/model.safetensors");
   return json::parse(file.metadata.at("config"));
 }
 
@@ -49,8 +49,8 @@ std::string error_of(Read read) {
 // The config the bundled model carries, written by the writer before the field tables, comes
 // out of them unchanged, byte for byte.
 TEST(ModelConfig, TheBundledCheckpointsConfigIsWrittenByteForByte) {
-  const io::SafetensorsFile file =
-      io::read_safetensors(std::string(OMNIPOINT_SOURCE_DIR) + "/models/omnipoint_default.safetensors");
+  const io::SafetensorsFile file = io::read_safetensors(std::string(OMNIPOINT_SOURCE_DIR) +
+                                                        "/models/omnipoint_default.safetensors");
   const OmniPointConfig config = config_from_metadata(file.metadata);
   EXPECT_EQ(config.to_json_text(), file.metadata.at("config"));
   EXPECT_EQ(omnipoint_metadata(config), file.metadata);
@@ -70,8 +70,8 @@ TEST(ModelConfig, EveryTableReadsBackWhatItWrites) {
   const json moge2 = moge2_fixture_config();
   expect_round_trip(moge2_table(), moge2);
   // The writer states every key, the per-level forms as lists.
-  const json neck = write(conv_stack_table(), util::read_config(conv_stack_table(),
-                                                                 ray["neck"], "neck"));
+  const json neck =
+      write(conv_stack_table(), util::read_config(conv_stack_table(), ray["neck"], "neck"));
   EXPECT_EQ(neck["dim_out"], json::parse("[null, null, null, null, null]"));
   EXPECT_EQ(neck["dim_times_res_block_hidden"], 1);
   EXPECT_FALSE(neck.contains("activation"));
@@ -89,8 +89,10 @@ TEST(ModelConfig, EveryTableReadsBackWhatItWrites) {
 // DINOv2's null init_values, and keys MoGe's constructors take as **deprecated_kwargs.
 TEST(ModelConfig, MoGe2PublishedFormsLoad) {
   json config = moge2_fixture_config();
-  config["encoder"] = {{"backbone", "dinov2_vits14"}, {"intermediate_layers", 4},
-                       {"dim_out", 64}, {"num_features", 3}};
+  config["encoder"] = {{"backbone", "dinov2_vits14"},
+                       {"intermediate_layers", 4},
+                       {"dim_out", 64},
+                       {"num_features", 3}};
   config["scale_head"] = nullptr;
   config["normal_head"] = config["points_head"];
   config["trained_area_range"] = {250000, 500000};
@@ -125,7 +127,9 @@ TEST(ModelConfig, ErrorsNameTheKeyPath) {
             "OmniPoint config: conditioning.encoder_dim: must be positive");
   EXPECT_EQ(omnipoint([](json& c) { c["neck"]["dim_in"][0] = 17; }),
             "OmniPoint config: neck.dim_in[0]: must be encoder.dim_out + 2 (features and uv)");
-  EXPECT_EQ(omnipoint([](json& c) { c["neck"]["num_res_blocks"] = {0, 1, 1}; }),
+  EXPECT_EQ(omnipoint([](json& c) {
+              c["neck"]["num_res_blocks"] = {0, 1, 1};
+            }),
             "OmniPoint config: neck.num_res_blocks: expected 5 entries (one per level) or one "
             "value for all, got 3");
   EXPECT_EQ(omnipoint([](json& c) { c["neck"]["dim_res_blocks"][1] = 1.5; }),
@@ -142,7 +146,9 @@ TEST(ModelConfig, ErrorsNameTheKeyPath) {
             "OmniPoint config: ray_head: required");
   EXPECT_EQ(omnipoint([](json& c) { c["output"] = "depth"; }),
             "OmniPoint config: output: expected one of ray_distance, xyz, got \"depth\"");
-  EXPECT_EQ(omnipoint([](json& c) { c["scale_head"]["dims"] = {16, 1}; }),
+  EXPECT_EQ(omnipoint([](json& c) {
+              c["scale_head"]["dims"] = {16, 1};
+            }),
             "OmniPoint config: scale_head.dims: must run from the ViT width (32) to 1");
   EXPECT_EQ(omnipoint([](json& c) { c["encoder"]["backbone_config"]["num_heads"] = 3; }),
             "OmniPoint config: encoder.backbone_config.embed_dim: must be a multiple of "

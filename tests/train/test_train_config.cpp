@@ -105,8 +105,8 @@ TEST(TrainConfig, DerivedConfigsDifferFromTheirBaseInTheirDocumentedKeys) {
       {"default_model/omnipoint_default_finetune6.json",
        {"init.path", "output_dir", "seed", "stages"}},
       {"gpu/omnipoint_gpu.json",
-       {"checkpoint_every", "data.batch_size", "data.datasets", "device", "eval_every",
-        "log_every", "model", "output_dir", "precision", "stages", "threads"}},
+       {"checkpoint_every", "data.batch_size", "data.datasets", "device", "eval_every", "log_every",
+        "model", "output_dir", "precision", "stages", "threads"}},
       {"ablations/s1_base_seed1.json", {"output_dir", "seed"}},
       {"ablations/s1_base_seed2.json", {"output_dir", "seed"}},
       {"ablations/s1_disjoint.json", {"loss.point_loss", "output_dir"}},
@@ -176,8 +176,8 @@ TEST(TrainConfig, EnumsAndCamerasAreParsedAtLoad) {
   EXPECT_EQ(written["data"]["datasets"][0]["image_size"], json::parse("[28, 28]"));
 
   // A camera file is read once too, relative to the working directory as before.
-  const fs::path file = fs::temp_directory_path() /
-                        ("omnipoint_train_camera_" + std::to_string(::getpid()) + ".txt");
+  const fs::path file =
+      fs::temp_directory_path() / ("omnipoint_train_camera_" + std::to_string(::getpid()) + ".txt");
   std::ofstream(file) << "1 PINHOLE 28 28 20 20 14 14\n";
   text = tiny_config();
   text["data"]["datasets"][0]["synth"]["cameras"] = {file.string()};
@@ -203,9 +203,13 @@ TEST(TrainConfig, ErrorsNameTheKeyPath) {
             "training config: stages[1].warmup_steps: must lie in [0, steps)");
   EXPECT_EQ(changed([](json& c) { c["device"] = "gpu"; }),
             "training config: device: expected one of cpu, cuda, got \"gpu\"");
-  EXPECT_EQ(changed([](json& c) { c["init"] = {{"from", "moge2"}, {"output", "depth"}}; }),
+  EXPECT_EQ(changed([](json& c) {
+              c["init"] = {{"from", "moge2"}, {"output", "depth"}};
+            }),
             "training config: init.output: expected one of ray_distance, xyz, got \"depth\"");
-  EXPECT_EQ(changed([](json& c) { c["init"] = {{"from", "omnipoint"}}; }),
+  EXPECT_EQ(changed([](json& c) {
+              c["init"] = {{"from", "omnipoint"}};
+            }),
             "training config: init.path: required to initialise from omnipoint");
   EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["synth"]["scenes"] = {"forest"}; }),
             "training config: data.datasets[0].synth.scenes[0]: expected one of indoor, "
@@ -214,21 +218,26 @@ TEST(TrainConfig, ErrorsNameTheKeyPath) {
             "training config: data.datasets[0].synth.cameras: must not be empty");
   EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["folders"] = "pool"; }),
             "training config: data.datasets[0]: needs exactly one of \"synth\" or \"folders\"");
-  EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["image_size"] = {28, 1}; }),
+  EXPECT_EQ(changed([](json& c) {
+              c["data"]["datasets"][0]["image_size"] = {28, 1};
+            }),
             "training config: data.datasets[0].image_size: must be [width, height], at least 2 "
             "each");
   EXPECT_EQ(changed([](json& c) { c["data"].erase("datasets"); }),
             "training config: data.datasets: expected a non-empty array of data sources");
   EXPECT_EQ(changed([](json& c) { c.erase("stages"); }),
             "training config: stages: expected a non-empty array of training stages");
-  EXPECT_EQ(changed([](json& c) { c["loss"] = {{"local", {{"levels", {4, 0}}}}}; }),
+  EXPECT_EQ(changed([](json& c) {
+              c["loss"] = {{"local", {{"levels", {4, 0}}}}};
+            }),
             "training config: loss.local.levels: must be positive");
-  EXPECT_EQ(changed([](json& c) { c["optimizer"] = {{"eps", "small"}}; }),
+  EXPECT_EQ(changed([](json& c) {
+              c["optimizer"] = {{"eps", "small"}};
+            }),
             "training config: optimizer.eps: expected a finite number, got \"small\"");
   const std::string camera =
       changed([](json& c) { c["data"]["datasets"][0]["synth"]["cameras"][1] = "FISHEYE 28 28"; });
-  EXPECT_EQ(camera.rfind("training config: data.datasets[0].synth.cameras[1]: ", 0), 0u)
-      << camera;
+  EXPECT_EQ(camera.rfind("training config: data.datasets[0].synth.cameras[1]: ", 0), 0u) << camera;
   EXPECT_EQ(camera.find('\n'), std::string::npos);
 }
 
@@ -276,9 +285,8 @@ TEST_F(TrainConfigFiles, LoadMergesTheBaseAndAppliesOverrides) {
 
 TEST_F(TrainConfigFiles, OverridesAreCheckedLikeTheFile) {
   const std::string path = (dir_ / "runs" / "longer.json").string();
-  EXPECT_EQ(error_of_load({"data.bogus=1"}).rfind("config " + path +
-                                                  ": training config: data.bogus: unknown key",
-                                                  0),
+  EXPECT_EQ(error_of_load({"data.bogus=1"})
+                .rfind("config " + path + ": training config: data.bogus: unknown key", 0),
             0u)
       << error_of_load({"data.bogus=1"});
   EXPECT_EQ(error_of_load({"stages[0].steps=many"}),
@@ -294,8 +302,8 @@ TEST_F(TrainConfigFiles, OverridesAreCheckedLikeTheFile) {
 TEST(TrainCli, SetOverridesKeysOfTheConfig) {
   const fs::path dir = test::fresh_process_dir("omnipoint_train_set");
   json config = tiny_config();
-  config["model"] = json::parse(test::tiny_omnipoint_config_json(
-      "ray_distance", R"({"encoder_dim": 8, "splat_radius": 2})"));
+  config["model"] = json::parse(
+      test::tiny_omnipoint_config_json("ray_distance", R"({"encoder_dim": 8, "splat_radius": 2})"));
   config["output_dir"] = (dir / "unused").string();
   config["stages"] = {{{"stage", 1}, {"steps", 50}}, {{"stage", 2}, {"steps", 50}}};
   config["checkpoint_every"] = 0;
@@ -310,13 +318,13 @@ TEST(TrainCli, SetOverridesKeysOfTheConfig) {
   EXPECT_FALSE(fs::exists(dir / "unused"));
   std::istringstream log(test::slurp(dir / "set" / "log.jsonl"));
   int records = 0;
-  for (std::string line; std::getline(log, line);) records += line.find("\"loss\"") != std::string::npos;
+  for (std::string line; std::getline(log, line);)
+    records += line.find("\"loss\"") != std::string::npos;
   EXPECT_EQ(records, 2);  // 1 + 1 steps
 
   const test::CliRun bad = test::run_omnipoint(run + " --set data.bogus=1", dir / "cli");
   EXPECT_NE(bad.status, 0);
-  EXPECT_NE(bad.err.find("training config: data.bogus: unknown key"), std::string::npos)
-      << bad.err;
+  EXPECT_NE(bad.err.find("training config: data.bogus: unknown key"), std::string::npos) << bad.err;
   EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
   const test::CliRun malformed = test::run_omnipoint(run + " --set stages", dir / "cli");
   EXPECT_NE(malformed.status, 0);

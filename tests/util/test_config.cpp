@@ -69,8 +69,8 @@ const ConfigTable<Options>& options_table() {
     t.field("items", &Options::items, list_codec(struct_codec(item_table())));
     ConfigTable<Options>& section = t.section("section");
     section.field("width", &Options::width);
-    section.field("height", &Options::height).when(
-        [](const Options& o) { return o.width > 0; }, "a width");
+    section.field("height", &Options::height)
+        .when([](const Options& o) { return o.width > 0; }, "a width");
     t.custom(
          "per_item",
          [](const json& value, Options& o, const ConfigScope& scope) {
@@ -92,7 +92,9 @@ const ConfigTable<Options>& options_table() {
   return table;
 }
 
-Options read(const json& value) { return read_config(options_table(), value, "test"); }
+Options read(const json& value) {
+  return read_config(options_table(), value, "test");
+}
 
 json write(const Options& options) {
   json out;
@@ -110,7 +112,9 @@ std::string error_of(const json& value) {
   return "";
 }
 
-json with(const std::string& key, const json& value) { return json{{key, value}}; }
+json with(const std::string& key, const json& value) {
+  return json{{key, value}};
+}
 
 TEST(ConfigTable, AbsentKeysKeepTheMemberInitialisers) {
   const Options options = read(json::object());
@@ -198,8 +202,7 @@ TEST(ConfigTable, ErrorsAreOneLineNamingTheKeyPath) {
             "test: items[1].count: must be at least 1");
   EXPECT_EQ(error_of(with("items", {{{"weights", json::array()}}})),
             "test: items[0].weights: must not be empty");
-  EXPECT_EQ(error_of(with("section", {{"height", 2}})),
-            "test: section.height: only with a width");
+  EXPECT_EQ(error_of(with("section", {{"height", 2}})), "test: section.height: only with a width");
   EXPECT_EQ(error_of(with("kind", "other")),
             "test: kind: only \"options\" is supported, got \"other\"");
   EXPECT_EQ(error_of({{"items", {json::object()}}, {"per_item", {1, 2}}}),
@@ -309,12 +312,11 @@ TEST_F(ConfigFiles, CyclesMissingBasesAndBadExtendsNameTheFiles) {
   EXPECT_EQ(error_of(orphan), "config " + orphan + ": extends \"none.json\": " +
                                   (dir_ / "none.json").string() + ": cannot open for reading");
   const std::string number = file("number.json", R"({"extends": 3})");
-  EXPECT_EQ(error_of(number),
-            "config " + number + ": \"extends\" must be a file name, got 3");
+  EXPECT_EQ(error_of(number), "config " + number + ": \"extends\" must be a file name, got 3");
   const std::string broken = file("broken.json", R"({"extends": "bad.json"})");
   file("bad.json", "{");
-  EXPECT_EQ(error_of(broken).rfind("config " + (dir_ / "bad.json").string() + ": not valid JSON", 0),
-            0u)
+  EXPECT_EQ(
+      error_of(broken).rfind("config " + (dir_ / "bad.json").string() + ": not valid JSON", 0), 0u)
       << error_of(broken);
   EXPECT_EQ(error_of((dir_ / "nothing.json").string()),
             (dir_ / "nothing.json").string() + ": cannot open for reading");

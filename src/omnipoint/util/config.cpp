@@ -47,7 +47,9 @@ const json& empty_object() {
   return kEmpty;
 }
 
-bool is_null(const json& value) { return value.is_null(); }
+bool is_null(const json& value) {
+  return value.is_null();
+}
 
 std::string short_text(const json& value) {
   std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);
@@ -63,7 +65,9 @@ std::size_t array_size(const json& value, const ConfigScope& scope) {
   return value.size();
 }
 
-const json& array_item(const json& value, std::size_t index) { return value[index]; }
+const json& array_item(const json& value, std::size_t index) {
+  return value[index];
+}
 
 void make_array(json& value) {
   if (value.is_null()) value = json::array();
@@ -95,10 +99,18 @@ std::vector<std::string> object_keys(const json& value, const ConfigScope& scope
   return keys;
 }
 
-void set_null(json& value) { value = nullptr; }
-void set_text(json& value, const std::string& text) { value = text; }
-void set_integer(json& value, int64_t number) { value = number; }
-void set_unsigned(json& value, uint64_t number) { value = number; }
+void set_null(json& value) {
+  value = nullptr;
+}
+void set_text(json& value, const std::string& text) {
+  value = text;
+}
+void set_integer(json& value, int64_t number) {
+  value = number;
+}
+void set_unsigned(json& value, uint64_t number) {
+  value = number;
+}
 
 std::string read_text(const json& value, const ConfigScope& scope) {
   if (!value.is_string()) scope.fail("expected a string, got " + short_text(value));
@@ -234,8 +246,8 @@ json read_with_bases(const fs::path& path, std::vector<std::string>& chain,
   if (std::find(chain.begin(), chain.end(), id) != chain.end()) {
     std::string cycle;
     for (const std::string& file : names) cycle += file + " -> ";
-    throw std::invalid_argument("config " + names.front() + ": \"extends\" forms a cycle: " +
-                                cycle + name);
+    throw std::invalid_argument("config " + names.front() +
+                                ": \"extends\" forms a cycle: " + cycle + name);
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(name + ": cannot open for reading");
@@ -320,14 +332,12 @@ json read_config_file(const std::string& path) {
 
 void apply_config_override(json& document, const std::string& assignment) {
   const std::size_t equals = assignment.find('=');
-  if (equals == std::string::npos)
-    bad_override(assignment, "expected KEY=VALUE");
+  if (equals == std::string::npos) bad_override(assignment, "expected KEY=VALUE");
   const std::string path = assignment.substr(0, equals), text = assignment.substr(equals + 1);
   const std::vector<PathStep> steps = parse_key_path(path, assignment);
   json value = json::parse(text, nullptr, false);
   if (value.is_discarded()) value = text;  // a plain string: --set output_dir=runs/b
-  if (!document.is_object())
-    bad_override(assignment, "the config is not a JSON object");
+  if (!document.is_object()) bad_override(assignment, "the config is not a JSON object");
 
   json result = document;  // `document` stays as it was if the override fails
   json* at = &result;
@@ -337,14 +347,11 @@ void apply_config_override(json& document, const std::string& assignment) {
     const bool last = i + 1 == steps.size();
     const bool digits = step.key.find_first_not_of("0123456789") == std::string::npos;
     if (at->is_array()) {
-      if (!digits)
-        bad_override(assignment, where +
-                                    " is an array (index it as [i] or .i)");
+      if (!digits) bad_override(assignment, where + " is an array (index it as [i] or .i)");
       // Digits only: at most 19 of them fit; longer ones are out of range anyway.
       const std::size_t index = step.key.size() > 18 ? at->size() : std::stoull(step.key);
       if (index >= at->size())
-        bad_override(assignment, where + " has " +
-                                    std::to_string(at->size()) + " entries");
+        bad_override(assignment, where + " has " + std::to_string(at->size()) + " entries");
       where += "[" + step.key + "]";
       if (last) {
         (*at)[index] = value;
@@ -354,11 +361,10 @@ void apply_config_override(json& document, const std::string& assignment) {
       continue;
     }
     if (step.index)
-      bad_override(assignment, (where.empty() ? std::string("the config") : where) +
-                                  " is not an array");
+      bad_override(assignment,
+                   (where.empty() ? std::string("the config") : where) + " is not an array");
     if (!at->is_object() && !at->is_null())
-      bad_override(assignment, where + " is " +
-                                  config_json::short_text(*at) + ", not an object");
+      bad_override(assignment, where + " is " + config_json::short_text(*at) + ", not an object");
     where += (where.empty() ? "" : ".") + step.key;
     if (last) {
       if (value.is_null()) {  // as in "extends": null deletes (the key's default applies)

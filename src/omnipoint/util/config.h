@@ -184,16 +184,16 @@ class ConfigTable {
    public:
     FieldOptions(ConfigTable* table, std::size_t index) : table_(table), index_(index) {}
     // Absent -> ConfigError `message` at the key.
-    Self& required(std::string message = "required") {
+    Self& required(const std::string& message = "required") {
       field().required = true;
-      field().required_message = std::move(message);
+      field().required_message = message;
       return self();
     }
     // The key applies only where `active(struct)` holds, e.g. a head of one output kind;
     // `description` completes "only with ...".
-    Self& when(std::function<bool(const T&)> active, std::string description) {
+    Self& when(std::function<bool(const T&)> active, const std::string& description) {
       field().active = std::move(active);
-      field().active_description = std::move(description);
+      field().active_description = description;
       return self();
     }
     // Written only where `written(struct)` holds (e.g. an optional object left out when empty).
@@ -232,8 +232,7 @@ class ConfigTable {
       return *this;
     }
     Member& at_least(V min) {
-      return check([min](const V& v) { return v >= min; },
-                   "must be at least " + config_bound(min));
+      return check([min](const V& v) { return v >= min; }, "must be at least " + config_bound(min));
     }
     Member& positive() {
       return check([](const V& v) { return v > V{}; }, "must be positive");
@@ -258,14 +257,15 @@ class ConfigTable {
 
   // `member` at `key`, with the codec of its kind or the one given.
   template <typename V>
-  Member<V> field(std::string key, V T::*member, std::string doc = {}) {
-    return field(std::move(key), member, default_codec<V>(), std::move(doc));
+  Member<V> field(const std::string& key, V T::*member, const std::string& doc = {}) {
+    return field(key, member, default_codec<V>(), doc);
   }
   template <typename V>
-  Member<V> field(std::string key, V T::*member, ConfigCodec<V> codec, std::string doc = {}) {
+  Member<V> field(const std::string& key, V T::*member, const ConfigCodec<V>& codec,
+                  const std::string& doc = {}) {
     Field f;
-    f.key = std::move(key);
-    f.doc = std::move(doc);
+    f.key = key;
+    f.doc = doc;
     f.read = [member, read = codec.read](const nlohmann::json& json, T& value,
                                          const ConfigScope& scope) {
       value.*member = read(json, scope);
@@ -283,11 +283,11 @@ class ConfigTable {
 
   // A JSON object at `key` whose keys are more members of T: a flat struct read from nested
   // JSON ("data": {"batch_size": ...} into TrainConfig::batch_size). Absent, it reads as {}.
-  ConfigTable& section(std::string key, std::string doc = {}) {
+  ConfigTable& section(const std::string& key, const std::string& doc = {}) {
     auto table = std::make_shared<ConfigTable>();
     Field f;
-    f.key = std::move(key);
-    f.doc = std::move(doc);
+    f.key = key;
+    f.doc = doc;
     f.section = true;
     f.read = [table](const nlohmann::json& json, T& value, const ConfigScope& scope) {
       table->read_into(json, value, scope);
@@ -301,12 +301,13 @@ class ConfigTable {
   // A key read, written and checked by hand: values that depend on other fields, or that
   // fill several members. `read` gets the JSON at the key; `write` fills the (null) JSON at
   // the key; `check` (may be empty) gets the key's scope.
-  Custom custom(std::string key, std::function<void(const nlohmann::json&, T&, const ConfigScope&)> read,
+  Custom custom(const std::string& key,
+                std::function<void(const nlohmann::json&, T&, const ConfigScope&)> read,
                 std::function<void(const T&, nlohmann::json&)> write, Rule check = {},
-                std::string doc = {}) {
+                const std::string& doc = {}) {
     Field f;
-    f.key = std::move(key);
-    f.doc = std::move(doc);
+    f.key = key;
+    f.doc = doc;
     f.read = std::move(read);
     f.write = std::move(write);
     f.check = std::move(check);
@@ -316,18 +317,18 @@ class ConfigTable {
 
   // A key that may only hold `value` (a setting of the original format we support in one
   // form); written unless `written` is false.
-  void constant(std::string key, std::string value, bool written = true) {
+  void constant(const std::string& key, const std::string& value, bool written = true) {
     custom(
-        std::move(key),
+        key,
         [value](const nlohmann::json& json, T&, const ConfigScope& scope) {
           config_json::expect_text(json, value, scope);
         },
         [value](const T&, nlohmann::json& json) { config_json::set_text(json, value); })
         .written_if([written](const T&) { return written; });
   }
-  void constant(std::string key, int64_t value, bool written = true) {
+  void constant(const std::string& key, int64_t value, bool written = true) {
     custom(
-        std::move(key),
+        key,
         [value](const nlohmann::json& json, T&, const ConfigScope& scope) {
           config_json::expect_integer(json, value, scope);
         },
@@ -425,8 +426,7 @@ class ConfigTable {
 // read_config: read_into a default T, then check; a ConfigError comes out as
 // "DOCUMENT: PATH: problem". (Writing is ConfigTable::write.)
 template <typename T>
-T read_config(const ConfigTable<T>& table, const nlohmann::json& json,
-              const std::string& document);
+T read_config(const ConfigTable<T>& table, const nlohmann::json& json, const std::string& document);
 template <typename T>
 void check_config(const ConfigTable<T>& table, const T& value, const std::string& document);
 
