@@ -441,8 +441,9 @@ nlohmann::json read_config_file(const std::string& path);
 void merge_config(nlohmann::json& target, const nlohmann::json& patch);
 // "key.path=value": the value parsed as JSON, else taken as a string. Keys are separated by
 // dots; an array entry is "[i]" or ".i" ("stages[1].steps", "stages.1.steps"). Missing objects
-// on the way are created; an array index must exist. Errors: std::invalid_argument naming
-// the override.
+// on the way are created; an array index must exist; null deletes the key, as in "extends"
+// (its default applies). `json` is unchanged when the override fails: std::invalid_argument
+// naming the override.
 void apply_config_override(nlohmann::json& json, const std::string& assignment);
 
 // ---------------------------------------------------------------------------------------------
