@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <exception>
 
-#include "omnipoint/io/atomic_file.h"
 #include "omnipoint/train/batch_source.h"
 
 int main(int argc, char** argv) {
@@ -20,7 +19,7 @@ int main(int argc, char** argv) {
   }
   try {
     using namespace omnipoint::train;
-    const TrainConfig config = TrainConfig::from_text(omnipoint::io::read_file(argv[1]), argv[1]);
+    const TrainConfig config = TrainConfig::load(argv[1]);
     const int steps = argc > 2 ? std::atoi(argv[2]) : 6;
     const int threads = argc > 3 ? std::atoi(argv[3]) : 2;
     if (steps < 1 || threads < 1) {

@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   omnipoint::io::keep_freed_memory_in_heap();  // as `omnipoint` does
   try {
     using namespace omnipoint::train;
-    const TrainConfig config = TrainConfig::from_text(omnipoint::io::read_file(argv[1]), argv[1]);
+    const TrainConfig config = TrainConfig::load(argv[1]);
     const int measured = argc > 2 ? std::atoi(argv[2]) : 20;
     const int warmup = argc > 3 ? std::atoi(argv[3]) : 3;
     const int64_t start = argc > 4 ? std::atoll(argv[4]) : 0;

@@ -88,27 +88,30 @@ other_tests() {
 }
 
 # The run's config: the committed one with the measured number of stage-2 steps (and, for a
-# rehearsal, the CPU); $1: the images per second of the probe, or 0 for the probe itself.
+# rehearsal, the CPU), as a config that extends it; $1: the images per second of the probe, or 0
+# for the probe itself.
 write_config() {
   "$python" - "$1" "$train_seconds" "$device" "$(nproc)" "$2" > "$3" <<'EOF'
-import json, sys
+import json, os, sys
 images_per_s, seconds, device, cores, output_dir = (
     float(sys.argv[1]), float(sys.argv[2]), sys.argv[3], int(sys.argv[4]), sys.argv[5])
-config = json.load(open("examples/train/gpu/omnipoint_gpu.json"))
-config["device"], config["threads"], config["output_dir"] = device, cores, output_dir
-if device == "cpu":  # a rehearsal: small steps
-    config["data"]["batch_size"] = 4
+committed = "examples/train/gpu/omnipoint_gpu.json"
+# The stages and the batch are the GPU run's own keys (it extends the default recipe).
+config = json.load(open(committed))
 stage2, stage3 = config["stages"]
-batch = config["data"]["batch_size"]
+batch = 4 if device == "cpu" else config["data"]["batch_size"]  # a rehearsal: small steps
+run = {"extends": os.path.abspath(committed), "device": device, "threads": cores,
+       "output_dir": output_dir, "data": {"batch_size": batch}}
 if images_per_s > 0:
     # 0.85: the in-run evaluations and checkpoints take their share of the time.
     steps = int(0.85 * seconds * images_per_s / batch) - stage3["steps"]
     stage2["steps"] = max(steps, 20)
     stage2["warmup_steps"] = min(stage2["warmup_steps"], stage2["steps"] // 5)
     stage3["steps"] = min(stage3["steps"], stage2["steps"] // 5)
-    config["eval_every"] = max(stage2["steps"] // 4, 1)
-    config["checkpoint_every"] = max(stage2["steps"] // 8, 1)
-json.dump(config, sys.stdout, indent=2)
+    run["stages"] = [stage2, stage3]
+    run["eval_every"] = max(stage2["steps"] // 4, 1)
+    run["checkpoint_every"] = max(stage2["steps"] // 8, 1)
+json.dump(run, sys.stdout, indent=2)
 EOF
 }
 

@@ -12,7 +12,6 @@
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "cli/threads.h"
-#include "omnipoint/io/atomic_file.h"
 #include "omnipoint/train/launcher.h"
 #include "omnipoint/train/training_session.h"
 
@@ -21,6 +20,7 @@ namespace {
 
 struct TrainOptions {
   std::string config_path;
+  std::vector<std::string> overrides;  // --set key.path=value
   std::string resume;
   int64_t stop_after = 0;  // 0: run to the end
   int64_t nproc = 1;       // > 1: launch that many local ranks
@@ -47,8 +47,7 @@ class PrintingObserver : public train::TrainingObserver {
 
 void run_train(const TrainOptions& options) {
   train::TrainingSessionOptions session;
-  session.config =
-      train::TrainConfig::from_text(io::read_file(options.config_path), options.config_path);
+  session.config = train::TrainConfig::load(options.config_path, options.overrides);
   if (options.curves_only) return train::redraw_training_curves(session.config.output_dir);
   session.resume = options.resume;
   session.stop_after = options.stop_after;
@@ -64,6 +63,8 @@ void run_train(const TrainOptions& options) {
 // as torchrun would start them.
 void launch_ranks(const TrainOptions& options) {
   std::vector<std::string> arguments{"train", "--config", options.config_path};
+  for (const std::string& assignment : options.overrides)
+    arguments.insert(arguments.end(), {"--set", assignment});
   if (!options.resume.empty()) arguments.insert(arguments.end(), {"--resume", options.resume});
   if (options.stop_after > 0)
     arguments.insert(arguments.end(), {"--stop-after", std::to_string(options.stop_after)});
@@ -82,6 +83,12 @@ void add_train_command(CLI::App& app) {
       "Train an OmniPoint model from a JSON config (stages, data, losses, optimiser); "
       "checkpoints and log.jsonl go to the config's output_dir");
   command->add_option("--config", options->config_path, "Training config (.json)")->required();
+  command
+      ->add_option("--set", options->overrides,
+                   "Override a config key, KEY.PATH=VALUE (repeatable; VALUE as JSON, else a "
+                   "string), e.g. --set stages[0].steps=2000 --set output_dir=runs/b")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   command->add_option(
       "--resume", options->resume,
       "Continue from a checkpoint: a run's output_dir, its checkpoints/ folder or one step folder");

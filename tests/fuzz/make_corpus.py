@@ -210,6 +210,45 @@ FULL_TRAIN = {
     "stages": [{"stage": 1, "steps": 1e4, "lr_backbone": 1e-4, "lr_heads": 1e-5, "decay_every": 2000,
                 "decay_factor": 0.5}, {"stage": 2, "steps": 5}, {"stage": 3, "steps": 5}],
     "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4, "max_nonfinite_steps": 10}
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def safetensors_metadata(path):
+    """The "__metadata__" of a .safetensors file (its header's JSON)."""
+    with open(os.path.join(ROOT, path), "rb") as f:
+        length = struct.unpack("<Q", f.read(8))[0]
+        return json.loads(f.read(length))["__metadata__"]
+
+
+# Model configs as checkpoints carry them (safetensors metadata "config"): the bundled model's,
+# the tiny example's, MoGe-2's from the fixture (README there) and in its published form (a hub
+# backbone, an int of intermediate layers, no scale head, a key MoGe takes as **kwargs).
+BUNDLED_CONFIG = safetensors_metadata("models/omnipoint_default.safetensors")["config"].encode()
+BUNDLED = json.loads(BUNDLED_CONFIG)
+MOGE2_CONFIG = safetensors_metadata("tests/fixtures/moge2_forward_a/model.safetensors")["config"].encode()
+MOGE2 = json.loads(MOGE2_CONFIG)
+with open(os.path.join(ROOT, "examples/models/tiny_omnipoint.json"), "rb") as f:
+    TINY_CONFIG = f.read()
+TINY = json.loads(TINY_CONFIG)
+TINY_XYZ = dict({k: v for k, v in TINY.items() if k not in ("ray_head", "distance_head")},
+                output="xyz", points_head=dict(TINY["ray_head"]))
+MOGE2_HUB = dict(MOGE2, encoder={"backbone": "dinov2_vits14", "intermediate_layers": 4, "dim_out": 64},
+                 normal_head=MOGE2["points_head"], scale_head=None, trained_area_range=[250000, 500000])
+
+
+def changed(config, path, value):
+    """`config` with the entry at `path` (keys and indices) set to `value`, or deleted (None)."""
+    config = json.loads(json.dumps(config))
+    at = config
+    for key in path[:-1]:
+        at = at[key]
+    if value is None:
+        del at[path[-1]]
+    else:
+        at[path[-1]] = value
+    return js(config)
+
+
 K = [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]
 IDENTITY_4X4 = b"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
 NEAR_FAR = ((b"near", b"0.5"), (b"far", b"80.25"))
@@ -298,6 +337,11 @@ SEEDS = {
                                          "params": [30, 30, 32, 24, 0.01, 0, 0, 0, 0.001, 0, 0.0004, 0, 0, 0, 0, 0]}),
     "train_config/minimal.json": js(MINIMAL_TRAIN),
     "train_config/full.json": js(FULL_TRAIN),
+    "checkpoint_metadata/omnipoint_default.json": BUNDLED_CONFIG,
+    "checkpoint_metadata/tiny_omnipoint.json": TINY_CONFIG,
+    "checkpoint_metadata/tiny_xyz.json": js(TINY_XYZ),
+    "checkpoint_metadata/moge2_fixture.json": MOGE2_CONFIG,
+    "checkpoint_metadata/moge2_hub.json": js(MOGE2_HUB),
     "png_text/moge_depth.png": png(NEAR_FAR),
     "png_text/unit_itxt.png": png(((b"near", b"1e-2"), (b"far", b"1e3"), (b"unit", b"0.001")),
                                   itxt=((b"Software", b"seed"),)),
@@ -428,15 +472,40 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
                                                  "params": [890.9, 890.5, 477.8, 470.3, 0.0168, 1.6549, 0.00042, 0.00042, 2.2134]}),
                                              "both radial (k1 k2) and tangential (p1 p2) terms are non-zero"),
     "train_config/not_json.json": (b'{"stages": [', "not valid JSON"),
-    "train_config/unknown_key.json": (js(dict(MINIMAL_TRAIN, bogus=1)), "unknown key \"bogus\""),
-    "train_config/threads_huge.json": (js(dict(MINIMAL_TRAIN, threads=1e300)), "config.threads: expected an integer in range"),
+    "train_config/unknown_key.json": (js(dict(MINIMAL_TRAIN, bogus=1)), "bogus: unknown key"),
+    "train_config/threads_huge.json": (js(dict(MINIMAL_TRAIN, threads=1e300)), "threads: expected an integer in range"),
     "train_config/steps_fraction.json": (js(dict(MINIMAL_TRAIN, stages=[{"stage": 1, "steps": 1.5}])),
                                          "stages[0].steps: expected an integer in range"),
     "train_config/no_stages.json": (js({k: v for k, v in MINIMAL_TRAIN.items() if k != "stages"}),
                                     "expected a non-empty array of training stages"),
-    "train_config/seed_negative.json": (js(dict(MINIMAL_TRAIN, seed=-1)), "config.seed: expected an integer in range"),
+    "train_config/seed_negative.json": (js(dict(MINIMAL_TRAIN, seed=-1)), "seed: expected an integer in range"),
     "train_config/tokens_huge.json": (js(dict(MINIMAL_TRAIN, data=dict(MINIMAL_TRAIN["data"], num_tokens=[1, 1e30]))),
-                                      "data.num_tokens: expected an integer in range"),
+                                      "data.num_tokens[1]: expected an integer in range"),
+    "train_config/camera.json": (js(dict(MINIMAL_TRAIN, data={"datasets": [{"synth": {"cameras": ["PINHOLE 56 56 0 50 28 28"]}}]})),
+                                 "data.datasets[0].synth.cameras[0]: PINHOLE: focal length fx must be > 0"),
+    "checkpoint_metadata/not_json.json": (b'{"encoder":', "OmniPoint config is not valid JSON"),
+    "checkpoint_metadata/overflow.json": (BUNDLED_CONFIG.replace(b'"encoder_dim":16', b'"encoder_dim":1e999'),
+                                          "OmniPoint config is not valid JSON: [json.exception.out_of_range.406] number overflow"),
+    "checkpoint_metadata/moge2_overflow.json": (MOGE2_CONFIG.replace(b'"dim_out": 64', b'"dim_out": -1e999'),
+                                                "MoGe-2 config is not valid JSON: [json.exception.out_of_range.406] number overflow"),
+    "checkpoint_metadata/encoder_dim_huge.json": (changed(BUNDLED, ["conditioning", "encoder_dim"], 1e300),
+                                                  "conditioning.encoder_dim: expected an integer in range"),
+    "checkpoint_metadata/unknown_key.json": (changed(BUNDLED, ["bogus"], 1), "bogus: unknown key"),
+    "checkpoint_metadata/neck_input.json": (changed(BUNDLED, ["neck", "dim_in", 0], 3),
+                                            "neck.dim_in[0]: must be encoder.dim_out + 2 (features and uv)"),
+    "checkpoint_metadata/points_head.json": (changed(BUNDLED, ["points_head"], BUNDLED["ray_head"]),
+                                             "points_head: only with \"output\": \"xyz\""),
+    "checkpoint_metadata/dim_fraction.json": (changed(BUNDLED, ["neck", "dim_res_blocks", 1], 24.5),
+                                              "neck.dim_res_blocks[1]: expected an integer in range"),
+    "checkpoint_metadata/no_mask_head.json": (changed(TINY, ["mask_head"], None), "mask_head: required"),
+    "checkpoint_metadata/moge2_no_points_head.json": (changed(MOGE2, ["points_head"], None),
+                                                      "MoGe-2 config: points_head: required"),
+    "checkpoint_metadata/moge2_layers.json": (changed(MOGE2, ["encoder", "intermediate_layers"], 99),
+                                              "encoder.intermediate_layers: expected an integer in range [1, 4], got 99"),
+    "checkpoint_metadata/moge2_depth.json": (changed(MOGE2, ["encoder", "backbone_config", "depth"], 1e12),
+                                             "encoder.backbone_config.depth: must lie in [1, 1024]"),
+    "checkpoint_metadata/moge2_norm.json": (changed(MOGE2, ["neck", "res_block_in_norm"], "group_norm"),
+                                            "neck.res_block_in_norm: only \"none\" is supported, got \"group_norm\""),
     "png_text/bad_signature.png": (b"\x89PNX\r\n\x1a\n" + png(NEAR_FAR)[8:], "bad signature"),
     "png_text/crc.png": (png(NEAR_FAR).replace(b"0.5", b"0.6", 1), "CRC mismatch in tEXt"),
     "png_text/truncated.png": (png(NEAR_FAR)[:40], "truncated chunk"),

@@ -3,9 +3,13 @@
 // tests/fuzz/{corpus,malformed,regressions}/<name>/. The libFuzzer targets (fuzz_<name>.cpp)
 // and the CTest replay (tests/io/test_parser_corpus.cpp) drive them through these entries, so
 // both feed the same bytes to the same calls.
+#include <nlohmann/json.hpp>
+
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +24,7 @@
 #include "omnipoint/io/ply.h"
 #include "omnipoint/io/point_cloud.h"
 #include "omnipoint/io/safetensors.h"
+#include "omnipoint/model/config_tables.h"
 #include "omnipoint/train/train_config.h"
 
 namespace omnipoint::fuzz {
@@ -153,6 +158,61 @@ inline Parser train_config_parser() {
   return {"train_config",
           [](const std::string& b, const std::string& s) { train::TrainConfig::from_text(b, s); }};
 }
+// A checkpoint's model config, the "config" entry of its safetensors metadata, read as
+// infer::load_network reads it: by OmniPoint's reader (model::config_from_metadata), or by
+// MoGe-2's (model::MoGe2Config::from_json_text) for files named moge2* (the fuzzer's input has
+// no name: OmniPoint's); errors get "model SOURCE: " in front, as load_network's do.
+inline void parse_checkpoint_metadata(const std::string& b, const std::string& s) {
+  try {
+    if (std::filesystem::path(s).filename().string().rfind("moge2", 0) == 0)
+      model::MoGe2Config::from_json_text(b);
+    else
+      model::config_from_metadata({{"format", "omnipoint"}, {"config", b}});
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("model " + s + ": " + e.what());
+  }
+}
+// What reads is written, and what is written reads back to the same text: a config the writer
+// makes and the reader refuses (or reads otherwise) is a finding (std::logic_error).
+template <typename Read, typename Write>
+void expect_read_back(const std::string& text, Read read, Write write) {
+  std::optional<decltype(read(text))> config;
+  try {
+    config = read(text);
+  } catch (const std::invalid_argument&) {
+    return;
+  }
+  const std::string written = write(*config);
+  try {
+    if (write(read(written)) == written) return;
+  } catch (const std::invalid_argument& e) {
+    throw std::logic_error("a written config does not read back: " + std::string(e.what()));
+  }
+  throw std::logic_error("a written config reads back otherwise: " + written);
+}
+inline Parser checkpoint_metadata_parser() {
+  return {"checkpoint_metadata", parse_checkpoint_metadata,
+          [](const std::string& b, const std::string&) {
+            expect_read_back(
+                b, [](const std::string& t) { return model::OmniPointConfig::from_json_text(t); },
+                [](const model::OmniPointConfig& c) { return c.to_json_text(); });
+            expect_read_back(
+                b, [](const std::string& t) { return model::MoGe2Config::from_json_text(t); },
+                [](const model::MoGe2Config& c) {
+                  nlohmann::json json;
+                  model::moge2_table().write(c, json);
+                  return json.dump();
+                });
+            // The whole "__metadata__" object (string values), as io::parse_safetensors
+            // hands it over.
+            const nlohmann::json metadata = nlohmann::json::parse(b, nullptr, false);
+            if (!metadata.is_object()) return;
+            std::map<std::string, std::string> entries;
+            for (const auto& [key, value] : metadata.items())
+              if (value.is_string()) entries[key] = value.get<std::string>();
+            within_contract([&] { model::config_from_metadata(entries); });
+          }};
+}
 // A MoGe depth PNG's text chunks (near, far, unit), as read; then with valid CRCs.
 inline Parser png_text_parser() {
   return {"png_text",
@@ -176,10 +236,11 @@ inline Parser sample_meta_parser() {
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
   static const std::vector<Parser> table = {
-      safetensors_parser(),     npy_parser(),       ply_parser(),
-      lidar_bin_parser(),       pcd_parser(),       colmap_parser(),
-      rigid_transform_parser(), camera_parser(),    train_config_parser(),
-      png_text_parser(),        moge_meta_parser(), sample_meta_parser()};
+      safetensors_parser(),        npy_parser(),       ply_parser(),
+      lidar_bin_parser(),          pcd_parser(),       colmap_parser(),
+      rigid_transform_parser(),    camera_parser(),    train_config_parser(),
+      png_text_parser(),           moge_meta_parser(), sample_meta_parser(),
+      checkpoint_metadata_parser()};
   return table;
 }
 

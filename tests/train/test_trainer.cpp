@@ -114,8 +114,7 @@ TEST(TrainConfig, ShippedConfigsParse) {
   std::vector<std::string> configs = {(root / "bench/train_default_before_issue16.json").string()};
   for (const auto& entry : fs::recursive_directory_iterator(root / "examples" / "train"))
     if (entry.path().extension() == ".json") configs.push_back(entry.path().string());
-  for (const std::string& path : configs)
-    EXPECT_NO_THROW(TrainConfig::from_text(io::read_file(path), path)) << path;
+  for (const std::string& path : configs) EXPECT_NO_THROW(TrainConfig::load(path)) << path;
   EXPECT_GE(configs.size(), 4u);
   const auto read_json = [&](const char* path) {
     return json::parse(io::read_file((root / path).string()));

@@ -7,7 +7,10 @@
 #include <torch/nn/modules/upsampling.h>
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <stdexcept>
+
+#include "omnipoint/model/config_tables.h"
 
 namespace omnipoint::model {
 
@@ -41,104 +44,122 @@ torch::nn::Sequential resampler(const std::string& kind, int64_t in, int64_t out
                               "' (expected conv_transpose or bilinear)");
 }
 
-// A JSON value that is either one value for all levels or a list of `levels` values.
-template <typename T>
-std::vector<T> per_level(const nlohmann::json& json, const std::string& key, size_t levels,
-                         const std::string& name) {
-  const nlohmann::json& value = json.at(key);
-  std::vector<T> result;
-  try {
-    if (value.is_array()) {
-      if (value.size() != levels)
-        throw std::invalid_argument(name + ": '" + key + "' must have " + std::to_string(levels) +
-                                    " entries");
-      for (const auto& item : value) result.push_back(item.get<T>());
-    } else {
-      result.assign(levels, value.get<T>());
-    }
-  } catch (const nlohmann::json::exception&) {
-    throw std::invalid_argument(name + ": '" + key + "' has the wrong type");
-  }
-  return result;
+// `key`: one value for every level or a list of one per level (MoGe's ConvStack takes both),
+// `fewer` levels less than dim_res_blocks (the resamplers sit between levels). `ok` is the
+// check of each level's value.
+template <typename V>
+util::ConfigTable<ConvStackConfig>::Custom per_level_field(
+    util::ConfigTable<ConvStackConfig>& table, const std::string& key,
+    std::vector<V> ConvStackConfig::*member, util::ConfigCodec<V> item, std::size_t fewer,
+    std::function<bool(const V&)> ok, const std::string& expected, const std::string& doc) {
+  return table.custom(
+      key,
+      [=](const nlohmann::json& json, ConvStackConfig& config, const util::ConfigScope& scope) {
+        const std::size_t levels = config.dim_res_blocks.size() - fewer;
+        std::vector<V> values;
+        if (json.is_array()) {
+          if (json.size() != levels)
+            scope.fail("expected " + std::to_string(levels) +
+                       " entries (one per level) or one value for all, got " +
+                       std::to_string(json.size()));
+          for (std::size_t l = 0; l < levels; ++l)
+            values.push_back(item.read(json[l], scope.index(l)));
+        } else {
+          values.assign(levels, item.read(json, scope));
+        }
+        config.*member = std::move(values);
+      },
+      [=](const ConvStackConfig& config, nlohmann::json& json) {
+        json = nlohmann::json::array();
+        for (const V& value : config.*member) item.write(value, util::config_json::append(json));
+      },
+      [=](const ConvStackConfig& config, const util::ConfigScope& scope) {
+        const std::vector<V>& values = config.*member;
+        for (std::size_t l = 0; l < values.size(); ++l)
+          if (!ok(values[l])) scope.index(l).fail(expected);
+      },
+      doc);
 }
 
 }  // namespace
 
-}  // namespace omnipoint::model
-
-// nlohmann support for optional channel counts (null = none).
-namespace nlohmann {
-template <>
-struct adl_serializer<std::optional<int64_t>> {
-  static void from_json(const json& j, std::optional<int64_t>& value) {
-    value = j.is_null() ? std::nullopt : std::optional<int64_t>(j.get<int64_t>());
-  }
-};
-}  // namespace nlohmann
-
-namespace omnipoint::model {
-
-ConvStackConfig ConvStackConfig::from_json(const nlohmann::json& json, const std::string& name) {
-  if (!json.is_object()) throw std::invalid_argument(name + " config must be an object");
-  for (const auto& [key, value] : json.items()) {
-    if (key == "res_block_in_norm" || key == "res_block_hidden_norm") {
-      if (!value.is_string() || value.get<std::string>() != "none")
-        throw std::invalid_argument(name + ": " + key + " " + value.dump() +
-                                    " is not supported (only \"none\")");
-    } else if (key == "activation") {
-      if (!value.is_string() || value.get<std::string>() != "relu")
-        throw std::invalid_argument(name + ": activation " + value.dump() +
-                                    " is not supported (only \"relu\")");
-    } else if (key != "dim_in" && key != "dim_out" && key != "dim_res_blocks" &&
-               key != "num_res_blocks" && key != "resamplers" &&
-               key != "dim_times_res_block_hidden") {
-      throw std::invalid_argument(name + ": unknown key '" + key + "'");
-    }
-  }
-  if (!json.contains("dim_res_blocks") || !json["dim_res_blocks"].is_array() ||
-      json["dim_res_blocks"].empty())
-    throw std::invalid_argument(name + ": 'dim_res_blocks' must be a non-empty list");
-  ConvStackConfig config;
-  const size_t levels = json["dim_res_blocks"].size();
-  config.dim_res_blocks = per_level<int64_t>(json, "dim_res_blocks", levels, name);
-  config.dim_in = per_level<std::optional<int64_t>>(json, "dim_in", levels, name);
-  config.dim_out = json.contains("dim_out")
-                       ? per_level<std::optional<int64_t>>(json, "dim_out", levels, name)
-                       : std::vector<std::optional<int64_t>>(levels);
-  config.num_res_blocks = json.contains("num_res_blocks")
-                              ? per_level<int64_t>(json, "num_res_blocks", levels, name)
-                              : std::vector<int64_t>(levels, 1);
-  config.resamplers = per_level<std::string>(json, "resamplers", levels - 1, name);
-  if (json.contains("dim_times_res_block_hidden"))
-    config.dim_times_res_block_hidden =
-        per_level<int64_t>(json, "dim_times_res_block_hidden", 1, name)[0];
-  config.validate(name);
-  return config;
+const util::ConfigTable<ConvStackConfig>& conv_stack_table() {
+  static const util::ConfigTable<ConvStackConfig> table = [] {
+    using Dims = std::optional<int64_t>;
+    util::ConfigTable<ConvStackConfig> t;
+    const auto channels = util::integer_codec<int64_t>();
+    const auto optional_channels = util::nullable_codec(channels);
+    const auto positive = [](const Dims& dims) { return !dims || *dims > 0; };
+    // The number of levels: read first, the per-level keys follow it.
+    t.custom(
+         "dim_res_blocks",
+         [list = util::list_codec(channels)](const nlohmann::json& json, ConvStackConfig& config,
+                                             const util::ConfigScope& scope) {
+           config.dim_res_blocks = list.read(json, scope);
+           if (config.dim_res_blocks.empty()) scope.fail("expected a non-empty list, got []");
+         },
+         [](const ConvStackConfig& config, nlohmann::json& json) { json = config.dim_res_blocks; },
+         [](const ConvStackConfig& config, const util::ConfigScope& scope) {
+           for (std::size_t l = 0; l < config.dim_res_blocks.size(); ++l)
+             if (config.dim_res_blocks[l] <= 0) scope.index(l).fail("must be positive");
+         },
+         "the state's channels per level")
+        .required("required (a non-empty list: the state's channels per level)");
+    per_level_field<Dims>(t, "dim_in", &ConvStackConfig::dim_in, optional_channels, 0, positive,
+                          "must be positive or null", "a level's input channels; null: none")
+        .required();
+    per_level_field<Dims>(t, "dim_out", &ConvStackConfig::dim_out, optional_channels, 0, positive,
+                          "must be positive or null",
+                          "a level's output channels; null (default): the state is the output")
+        .if_absent([](ConvStackConfig& config) {
+          config.dim_out.assign(config.dim_res_blocks.size(), std::nullopt);
+        });
+    per_level_field<int64_t>(
+        t, "num_res_blocks", &ConvStackConfig::num_res_blocks, channels, 0,
+        [](const int64_t& n) { return n >= 0; }, "must be >= 0", "residual blocks per level")
+        .if_absent([](ConvStackConfig& config) {
+          config.num_res_blocks.assign(config.dim_res_blocks.size(), 1);
+        });
+    per_level_field<std::string>(
+        t, "resamplers", &ConvStackConfig::resamplers, util::string_codec(), 1,
+        [](const std::string& kind) { return kind == "conv_transpose" || kind == "bilinear"; },
+        "is not supported (conv_transpose, bilinear)", "between levels")
+        .required();
+    // One value, or a list of one (MoGe's form).
+    t.custom(
+        "dim_times_res_block_hidden",
+        [channels](const nlohmann::json& json, ConvStackConfig& config,
+                   const util::ConfigScope& scope) {
+          if (json.is_array() && json.size() != 1)
+            scope.fail("expected one value, got " + util::config_json::short_text(json));
+          config.dim_times_res_block_hidden =
+              json.is_array() ? channels.read(json[0], scope.index(0)) : channels.read(json, scope);
+        },
+        [](const ConvStackConfig& config, nlohmann::json& json) {
+          json = config.dim_times_res_block_hidden;
+        },
+        [](const ConvStackConfig& config, const util::ConfigScope& scope) {
+          if (config.dim_times_res_block_hidden <= 0) scope.fail("must be positive");
+        },
+        "hidden channels of a residual block, per state channel");
+    t.constant("res_block_in_norm", "none");
+    t.constant("res_block_hidden_norm", "none");
+    t.constant("activation", "relu", /*written=*/false);
+    t.rule([](const ConvStackConfig& config, const util::ConfigScope& scope) {
+      const std::size_t levels = config.dim_res_blocks.size();
+      if (levels == 0 || config.dim_in.size() != levels || config.dim_out.size() != levels ||
+          config.num_res_blocks.size() != levels || config.resamplers.size() != levels - 1)
+        scope.fail("per-level lists must all have " + std::to_string(levels) +
+                   " entries (resamplers one fewer)");
+      if (!config.dim_in[0]) scope.key("dim_in").index(0).fail("level 0 needs an input");
+    });
+    return t;
+  }();
+  return table;
 }
 
 void ConvStackConfig::validate(const std::string& name) const {
-  const size_t levels = dim_res_blocks.size();
-  if (levels == 0 || dim_in.size() != levels || dim_out.size() != levels ||
-      num_res_blocks.size() != levels || resamplers.size() != levels - 1) {
-    throw std::invalid_argument(name + ": per-level lists must all have " + std::to_string(levels) +
-                                " entries (resamplers one fewer)");
-  }
-  auto positive = [](const std::optional<int64_t>& d) { return !d || *d > 0; };
-  for (size_t l = 0; l < levels; ++l) {
-    if (dim_res_blocks[l] <= 0 || !positive(dim_in[l]) || !positive(dim_out[l]) ||
-        num_res_blocks[l] < 0)
-      throw std::invalid_argument(name +
-                                  ": channel counts must be > 0 and num_res_blocks >= 0 (level " +
-                                  std::to_string(l) + ")");
-  }
-  if (!dim_in[0]) throw std::invalid_argument(name + ": level 0 needs an input (dim_in[0])");
-  if (dim_times_res_block_hidden <= 0)
-    throw std::invalid_argument(name + ": dim_times_res_block_hidden must be > 0");
-  for (const auto& kind : resamplers) {
-    if (kind != "conv_transpose" && kind != "bilinear")
-      throw std::invalid_argument(name + ": resampler '" + kind +
-                                  "' is not supported (conv_transpose, bilinear)");
-  }
+  util::check_config(conv_stack_table(), *this, name);
 }
 
 ResidualConvBlockImpl::ResidualConvBlockImpl(int64_t channels, int64_t hidden_channels) {

@@ -11,7 +11,6 @@
 #include <torch/nn/modules/container/modulelist.h>
 #include <torch/nn/modules/container/sequential.h>
 #include <torch/nn/pimpl.h>
-#include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
 #include <optional>
@@ -20,6 +19,9 @@
 
 namespace omnipoint::model {
 
+// Read and written as MoGe-2's ConvStack keywords by conv_stack_table() (model/config_tables.h):
+// `dim_in`, `dim_out`, `num_res_blocks` and `resamplers` may be one value for all levels, as in
+// MoGe; only norms "none" and activation "relu" (what MoGe-2 uses) are supported.
 struct ConvStackConfig {
   std::vector<std::optional<int64_t>> dim_in;   // per level; none: the level takes no input
   std::vector<int64_t> dim_res_blocks;          // the state's channels per level
@@ -28,13 +30,8 @@ struct ConvStackConfig {
   std::vector<std::string> resamplers;          // levels − 1 of "conv_transpose", "bilinear"
   int64_t dim_times_res_block_hidden = 1;
 
-  // MoGe-2's ConvStack keywords. `dim_in`, `dim_out`, `num_res_blocks` and `resamplers` may
-  // be one value for all levels, as in MoGe. Only norms "none" and activation "relu" (what
-  // MoGe-2 uses) are supported; anything else is an std::invalid_argument naming it.
-  static ConvStackConfig from_json(const nlohmann::json& json,
-                                   const std::string& name = "conv stack");
-
   int64_t num_levels() const { return static_cast<int64_t>(dim_res_blocks.size()); }
+  // The table's checks; std::invalid_argument "NAME: KEY: problem".
   void validate(const std::string& name = "conv stack") const;
 };
 

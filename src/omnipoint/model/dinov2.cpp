@@ -8,6 +8,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "omnipoint/model/config_tables.h"
+
 namespace omnipoint::model {
 
 namespace F = torch::nn::functional;
@@ -31,73 +33,58 @@ DinoV2Config DinoV2Config::hub(const std::string& name) {
   return config;
 }
 
+const util::ConfigTable<DinoV2Config>& dinov2_table() {
+  static const util::ConfigTable<DinoV2Config> table = [] {
+    util::ConfigTable<DinoV2Config> t;
+    t.field("embed_dim", &DinoV2Config::embed_dim).positive();
+    // The largest published ViT has 40 blocks; the bound keeps a config from allocating
+    // what no file of weights could fill.
+    t.field("depth", &DinoV2Config::depth).range(1, 1024);
+    t.field("num_heads", &DinoV2Config::num_heads).positive();
+    t.field("mlp_ratio", &DinoV2Config::mlp_ratio).positive();
+    t.field("img_size", &DinoV2Config::img_size);
+    t.field("patch_size", &DinoV2Config::patch_size).positive();
+    t.field("ffn_layer", &DinoV2Config::ffn_layer, "mlp (GELU) or swiglufused (ViT-G)")
+        .check(
+            [](const std::string& layer) {
+              return layer == "mlp" || layer == "swiglufused" || layer == "swiglu";
+            },
+            "is not supported (expected mlp or swiglufused)");
+    // DINOv2's None (no LayerScale) is 0 here.
+    util::ConfigCodec<double> init_values = util::double_codec();
+    init_values.read = [finite = init_values.read](const nlohmann::json& json,
+                                                   const util::ConfigScope& scope) {
+      return json.is_null() ? 0.0 : finite(json, scope);
+    };
+    t.field("init_values", &DinoV2Config::init_values, init_values,
+            "LayerScale's initial value; null or 0: no LayerScale");
+    t.field("num_register_tokens", &DinoV2Config::num_register_tokens).at_least(0);
+    t.field("interpolate_offset", &DinoV2Config::interpolate_offset);
+    t.field("interpolate_antialias", &DinoV2Config::interpolate_antialias);
+    t.field("qkv_bias", &DinoV2Config::qkv_bias);
+    t.field("proj_bias", &DinoV2Config::proj_bias);
+    t.field("ffn_bias", &DinoV2Config::ffn_bias);
+    t.field("layer_norm_eps", &DinoV2Config::layer_norm_eps);
+    t.constant("act", "gelu");
+    // Chunked blocks only regroup the state-dict names (blocks.chunk.N); not supported.
+    t.constant("block_chunks", int64_t{0});
+    t.rule([](const DinoV2Config& config, const util::ConfigScope& scope) {
+      if (config.num_heads > 0 && config.embed_dim % config.num_heads != 0)
+        scope.key("embed_dim").fail("must be a multiple of num_heads");
+      if (config.img_size < config.patch_size)
+        scope.key("img_size").fail("must be at least patch_size");
+    });
+    return t;
+  }();
+  return table;
+}
+
 DinoV2Config DinoV2Config::from_json(const nlohmann::json& json) {
-  if (!json.is_object()) throw std::invalid_argument("DINOv2 backbone_config must be an object");
-  DinoV2Config config;
-  for (const auto& [key, value] : json.items()) {
-    try {
-      if (key == "embed_dim")
-        config.embed_dim = value.get<int64_t>();
-      else if (key == "depth")
-        config.depth = value.get<int64_t>();
-      else if (key == "num_heads")
-        config.num_heads = value.get<int64_t>();
-      else if (key == "mlp_ratio")
-        config.mlp_ratio = value.get<double>();
-      else if (key == "img_size")
-        config.img_size = value.get<int64_t>();
-      else if (key == "patch_size")
-        config.patch_size = value.get<int64_t>();
-      else if (key == "ffn_layer")
-        config.ffn_layer = value.get<std::string>();
-      else if (key == "init_values")
-        config.init_values = value.is_null() ? 0.0 : value.get<double>();
-      else if (key == "num_register_tokens")
-        config.num_register_tokens = value.get<int64_t>();
-      else if (key == "interpolate_offset")
-        config.interpolate_offset = value.get<double>();
-      else if (key == "interpolate_antialias")
-        config.interpolate_antialias = value.get<bool>();
-      else if (key == "qkv_bias")
-        config.qkv_bias = value.get<bool>();
-      else if (key == "proj_bias")
-        config.proj_bias = value.get<bool>();
-      else if (key == "ffn_bias")
-        config.ffn_bias = value.get<bool>();
-      else if (key == "layer_norm_eps")
-        config.layer_norm_eps = value.get<double>();
-      else if (key == "act") {
-        if (value.get<std::string>() != "gelu")
-          throw std::invalid_argument("only act \"gelu\" is supported");
-      } else if (key == "block_chunks") {
-        // Chunked blocks only regroup the state-dict names (blocks.chunk.N); not supported.
-        if (value.get<int64_t>() != 0)
-          throw std::invalid_argument("only block_chunks 0 is supported");
-      } else {
-        throw std::invalid_argument("unknown key");
-      }
-    } catch (const nlohmann::json::exception& e) {
-      throw std::invalid_argument("DINOv2 backbone_config: '" + key + "' has the wrong type");
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("DINOv2 backbone_config: '" + key + "': " + e.what());
-    }
-  }
-  config.validate();
-  return config;
+  return util::read_config(dinov2_table(), json, "DINOv2 config");
 }
 
 void DinoV2Config::validate() const {
-  auto fail = [](const std::string& what) {
-    throw std::invalid_argument("DINOv2 config: " + what);
-  };
-  if (embed_dim <= 0 || depth <= 0 || num_heads <= 0)
-    fail("embed_dim, depth, num_heads must be > 0");
-  if (embed_dim % num_heads != 0) fail("embed_dim must be a multiple of num_heads");
-  if (patch_size <= 0 || img_size < patch_size) fail("need 0 < patch_size <= img_size");
-  if (mlp_ratio <= 0) fail("mlp_ratio must be > 0");
-  if (num_register_tokens < 0) fail("num_register_tokens must be >= 0");
-  if (ffn_layer != "mlp" && ffn_layer != "swiglufused" && ffn_layer != "swiglu")
-    fail("ffn_layer '" + ffn_layer + "' is not supported (expected mlp or swiglufused)");
+  util::check_config(dinov2_table(), *this, "DINOv2 config");
 }
 
 LayerScaleImpl::LayerScaleImpl(int64_t dim, double init_values) {

@@ -46,7 +46,8 @@ struct DinoV2Config {
 
   // The torch.hub backbones by name: dinov2_vits14, dinov2_vitb14, dinov2_vitl14, dinov2_vitg14.
   static DinoV2Config hub(const std::string& name);
-  // DINOv2's constructor keywords (MoGe's `backbone_config`); unknown keys are an error.
+  // DINOv2's constructor keywords (MoGe's `backbone_config`); unknown keys are an error. The
+  // table of keys and checks is dinov2_table() (model/config_tables.h).
   static DinoV2Config from_json(const nlohmann::json& json);
 
   int64_t head_dim() const { return embed_dim / num_heads; }

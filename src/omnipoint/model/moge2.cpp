@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "omnipoint/geometry/view_plane_uv.h"
+#include "omnipoint/model/config_tables.h"
 #include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
 #include "omnipoint/util/threads.h"
@@ -22,98 +23,166 @@ namespace F = torch::nn::functional;
 // ---------------------------------------------------------------------------------------------
 // Configuration
 
-MoGe2EncoderConfig MoGe2EncoderConfig::from_json(const nlohmann::json& json) {
-  if (!json.is_object()) throw std::invalid_argument("MoGe-2 config: 'encoder' must be an object");
-  MoGe2EncoderConfig config;
-  config.backbone = json.at("backbone").get<std::string>();
-  if (config.backbone == "dinov2_custom") {
-    if (!json.contains("backbone_config"))
-      throw std::invalid_argument(
-          "MoGe-2 config: backbone dinov2_custom needs 'encoder.backbone_config'");
-    config.backbone_config = DinoV2Config::from_json(json["backbone_config"]);
-  } else {
-    config.backbone_config = DinoV2Config::hub(config.backbone);
-  }
-  const int64_t depth = config.backbone_config.depth;
-  const nlohmann::json& layers = json.at("intermediate_layers");
-  if (layers.is_number_integer()) {  // MoGe: an int n takes the last n blocks
-    const int64_t count = layers.get<int64_t>();
-    if (count <= 0 || count > depth)
-      throw std::invalid_argument("MoGe-2 config: intermediate_layers must be in [1, " +
-                                  std::to_string(depth) + "]");
-    for (int64_t i = depth - count; i < depth; ++i) config.intermediate_layers.push_back(i);
-  } else {
-    config.intermediate_layers = layers.get<std::vector<int64_t>>();
-  }
-  for (size_t i = 0; i < config.intermediate_layers.size(); ++i) {
-    const int64_t layer = config.intermediate_layers[i];
-    if (layer < 0 || layer >= depth || (i > 0 && layer <= config.intermediate_layers[i - 1]))
-      throw std::invalid_argument(
-          "MoGe-2 config: intermediate_layers must be increasing block indices below " +
-          std::to_string(depth));
-  }
-  if (config.intermediate_layers.empty())
-    throw std::invalid_argument("MoGe-2 config: intermediate_layers is empty");
-  config.dim_out = json.at("dim_out").get<int64_t>();
-  if (config.dim_out <= 0)
-    throw std::invalid_argument("MoGe-2 config: encoder.dim_out must be > 0");
-  return config;
+namespace {
+
+bool custom_backbone(const MoGe2EncoderConfig& config) {
+  return config.backbone == "dinov2_custom";
+}
+
+}  // namespace
+
+void check_neck_inputs(const MoGe2EncoderConfig& encoder, const ConvStackConfig& neck,
+                       const util::ConfigScope& scope) {
+  const util::ConfigScope dim_in = scope.key("neck").key("dim_in");
+  if (!neck.dim_in[0] || *neck.dim_in[0] != encoder.dim_out + 2)
+    dim_in.index(0).fail("must be encoder.dim_out + 2 (features and uv)");
+  for (std::size_t level = 1; level < neck.dim_in.size(); ++level)
+    if (neck.dim_in[level] && *neck.dim_in[level] != 2)
+      dim_in.index(level).fail("levels above 0 take the 2-channel uv map (dim_in 2 or null)");
+}
+
+void check_scale_head(const std::vector<int64_t>& dims, const MoGe2EncoderConfig& encoder,
+                      const util::ConfigScope& scope) {
+  if (dims.size() < 2 || dims.front() != encoder.backbone_config.embed_dim || dims.back() != 1)
+    scope.key("scale_head")
+        .key("dims")
+        .fail("must run from the ViT width (" + std::to_string(encoder.backbone_config.embed_dim) +
+              ") to 1");
+}
+
+const util::ConfigTable<MoGe2EncoderConfig>& moge2_encoder_table() {
+  static const util::ConfigTable<MoGe2EncoderConfig> table = [] {
+    util::ConfigTable<MoGe2EncoderConfig> t;
+    t.ignore_unknown_keys();  // as MoGe's DINOv2Encoder(**deprecated_kwargs)
+    t.custom(
+         "backbone",
+         [](const nlohmann::json& json, MoGe2EncoderConfig& config,
+            const util::ConfigScope& scope) {
+           config.backbone = util::config_json::read_text(json, scope);
+           if (custom_backbone(config)) return;
+           try {
+             config.backbone_config = DinoV2Config::hub(config.backbone);
+           } catch (const std::invalid_argument& e) {
+             scope.fail(e.what());
+           }
+         },
+         [](const MoGe2EncoderConfig& config, nlohmann::json& json) { json = config.backbone; }, {},
+         "a torch.hub DINOv2 name, or dinov2_custom with a backbone_config")
+        .required();
+    // Read and checked at once: intermediate_layers counts the blocks.
+    t.custom(
+         "backbone_config",
+         [](const nlohmann::json& json, MoGe2EncoderConfig& config,
+            const util::ConfigScope& scope) {
+           config.backbone_config = dinov2_table().read(json, scope);
+           dinov2_table().check(config.backbone_config, scope);
+         },
+         [](const MoGe2EncoderConfig& config, nlohmann::json& json) {
+           dinov2_table().write(config.backbone_config, json);
+         },
+         [](const MoGe2EncoderConfig& config, const util::ConfigScope& scope) {
+           dinov2_table().check(config.backbone_config, scope);
+         },
+         "DINOv2's constructor keywords")
+        .when(custom_backbone, "backbone \"dinov2_custom\"")
+        .required("required with backbone \"dinov2_custom\"");
+    t.custom(
+         "intermediate_layers",
+         [list = util::list_codec(util::integer_codec<int64_t>())](const nlohmann::json& json,
+                                                                   MoGe2EncoderConfig& config,
+                                                                   const util::ConfigScope& scope) {
+           const int64_t depth = config.backbone_config.depth;
+           if (!json.is_number()) {
+             config.intermediate_layers = list.read(json, scope);
+             return;
+           }
+           // MoGe: an int n takes the last n blocks.
+           const int64_t count = util::config_json::read_integer(json, 1, depth, scope);
+           config.intermediate_layers.clear();
+           for (int64_t i = depth - count; i < depth; ++i) config.intermediate_layers.push_back(i);
+         },
+         [](const MoGe2EncoderConfig& config, nlohmann::json& json) {
+           json = config.intermediate_layers;
+         },
+         [](const MoGe2EncoderConfig& config, const util::ConfigScope& scope) {
+           const std::vector<int64_t>& layers = config.intermediate_layers;
+           if (layers.empty()) scope.fail("must not be empty");
+           for (std::size_t i = 0; i < layers.size(); ++i)
+             if (layers[i] < 0 || layers[i] >= config.backbone_config.depth ||
+                 (i > 0 && layers[i] <= layers[i - 1]))
+               scope.index(i).fail("must be increasing block indices below the depth, " +
+                                   std::to_string(config.backbone_config.depth));
+         },
+         "block indices (an int n: the last n)")
+        .required();
+    t.field("dim_out", &MoGe2EncoderConfig::dim_out).required().positive();
+    return t;
+  }();
+  return table;
+}
+
+util::ConfigCodec<std::vector<int64_t>> scale_head_codec(bool nullable) {
+  struct ScaleHead {
+    std::vector<int64_t> dims;
+  };
+  static const util::ConfigTable<ScaleHead> table = [] {
+    util::ConfigTable<ScaleHead> t;
+    t.field("dims", &ScaleHead::dims, "the MLP's widths, from the ViT's to 1").required();
+    return t;
+  }();
+  util::ConfigCodec<std::vector<int64_t>> codec;
+  codec.read = [nullable](const nlohmann::json& json, const util::ConfigScope& scope) {
+    if (nullable && json.is_null()) return std::vector<int64_t>();
+    return table.read(json, scope).dims;
+  };
+  codec.write = [nullable](const std::vector<int64_t>& dims, nlohmann::json& json) {
+    if (nullable && dims.empty()) return;  // null
+    table.write({dims}, json);
+  };
+  return codec;
+}
+
+const util::ConfigTable<MoGe2Config>& moge2_table() {
+  static const util::ConfigTable<MoGe2Config> table = [] {
+    util::ConfigTable<MoGe2Config> t;
+    t.ignore_unknown_keys();  // as MoGe's MoGeModel(**deprecated_kwargs)
+    const auto head = util::nullable_codec(util::struct_codec(conv_stack_table()));
+    t.field("encoder", &MoGe2Config::encoder, util::struct_codec(moge2_encoder_table())).required();
+    t.field("neck", &MoGe2Config::neck, util::struct_codec(conv_stack_table())).required();
+    t.field("points_head", &MoGe2Config::points_head, head)
+        .check([](const std::optional<ConvStackConfig>& h) { return h.has_value(); }, "required");
+    t.field("mask_head", &MoGe2Config::mask_head, head);
+    t.field("normal_head", &MoGe2Config::normal_head, head);
+    t.field("scale_head", &MoGe2Config::scale_head_dims, scale_head_codec(true),
+            "null: no metric scale");
+    t.field("remap_output", &MoGe2Config::remap_output)
+        .check(
+            [](const std::string& remap) {
+              return remap == "linear" || remap == "sinh" || remap == "exp" || remap == "sinh_exp";
+            },
+            "is not one of linear, sinh, exp, sinh_exp");
+    t.field("num_tokens_range", &MoGe2Config::num_tokens_range)
+        .check([](const std::array<int64_t, 2>& r) { return r[0] > 0 && r[1] >= r[0]; },
+               "must be [min, max] with 0 < min <= max");
+    t.rule([](const MoGe2Config& config, const util::ConfigScope& scope) {
+      if (!config.scale_head_dims.empty())
+        check_scale_head(config.scale_head_dims, config.encoder, scope);
+      check_neck_inputs(config.encoder, config.neck, scope);
+    });
+    return t;
+  }();
+  return table;
 }
 
 MoGe2Config MoGe2Config::from_json(const nlohmann::json& json) {
-  if (!json.is_object()) throw std::invalid_argument("MoGe-2 config must be a JSON object");
-  MoGe2Config config;
-  try {
-    config.encoder = MoGe2EncoderConfig::from_json(json.at("encoder"));
-    config.neck = ConvStackConfig::from_json(json.at("neck"), "MoGe-2 neck");
-    for (auto [key, head] :
-         {std::pair{"points_head", &config.points_head}, std::pair{"mask_head", &config.mask_head},
-          std::pair{"normal_head", &config.normal_head}}) {
-      if (json.contains(key) && !json[key].is_null())
-        *head = ConvStackConfig::from_json(json[key], std::string("MoGe-2 ") + key);
-    }
-    if (json.contains("scale_head") && !json["scale_head"].is_null())
-      config.scale_head_dims = json["scale_head"].at("dims").get<std::vector<int64_t>>();
-    if (json.contains("remap_output"))
-      config.remap_output = json["remap_output"].get<std::string>();
-    if (json.contains("num_tokens_range")) {
-      const auto range = json["num_tokens_range"].get<std::vector<int64_t>>();
-      if (range.size() != 2 || range[0] <= 0 || range[1] < range[0])
-        throw std::invalid_argument(
-            "MoGe-2 config: num_tokens_range must be [min, max] with 0 < min <= max");
-      config.num_tokens_range = {range[0], range[1]};
-    }
-  } catch (const nlohmann::json::exception& e) {
-    throw std::invalid_argument(std::string("MoGe-2 config: missing or mistyped entry (") +
-                                e.what() + ")");
-  }
-  if (!config.points_head) throw std::invalid_argument("MoGe-2 config: 'points_head' is required");
-  if (config.remap_output != "linear" && config.remap_output != "sinh" &&
-      config.remap_output != "exp" && config.remap_output != "sinh_exp")
-    throw std::invalid_argument("MoGe-2 config: remap_output '" + config.remap_output +
-                                "' is not one of linear, sinh, exp, sinh_exp");
-  const auto& dims = config.scale_head_dims;
-  if (!dims.empty() &&
-      (dims.size() < 2 || dims.front() != config.encoder.backbone_config.embed_dim ||
-       dims.back() != 1))
-    throw std::invalid_argument("MoGe-2 config: scale_head.dims must run from the ViT width to 1");
-  const auto& neck_in = config.neck.dim_in[0];
-  if (!neck_in || *neck_in != config.encoder.dim_out + 2)
-    throw std::invalid_argument(
-        "MoGe-2 config: neck.dim_in[0] must be encoder.dim_out + 2 (features and uv)");
-  for (int64_t l = 1; l < config.neck.num_levels(); ++l) {
-    if (config.neck.dim_in[l] && *config.neck.dim_in[l] != 2)
-      throw std::invalid_argument(
-          "MoGe-2 config: neck levels above 0 take the 2-channel uv map (dim_in 2)");
-  }
-  return config;
+  return util::read_config(moge2_table(), json, "MoGe-2 config");
 }
 
 MoGe2Config MoGe2Config::from_json_text(const std::string& text) {
   nlohmann::json json;
   try {
     json = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for 1e999
     throw std::invalid_argument(std::string("MoGe-2 config is not valid JSON: ") + e.what());
   }
   return from_json(json);

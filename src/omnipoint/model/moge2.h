@@ -36,9 +36,8 @@ struct MoGe2EncoderConfig {
   DinoV2Config backbone_config;              // resolved from the name, or MoGe's backbone_config
   std::vector<int64_t> intermediate_layers;  // block indices (an int n in JSON: the last n)
   int64_t dim_out = 1024;
-
-  // MoGe-2's "encoder" section (also OmniPoint's).
-  static MoGe2EncoderConfig from_json(const nlohmann::json& json);
+  // Read and written as MoGe-2's "encoder" section (also OmniPoint's) by moge2_encoder_table()
+  // (model/config_tables.h); unknown keys pass, as MoGe's **deprecated_kwargs.
 };
 
 struct MoGe2Config {
@@ -49,7 +48,9 @@ struct MoGe2Config {
   std::string remap_output = "linear";   // linear | sinh | exp | sinh_exp
   std::array<int64_t, 2> num_tokens_range{1200, 3600};
 
-  // The dict MoGe-2's MoGeModel(**config) takes, as stored in our safetensors metadata.
+  // The dict MoGe-2's MoGeModel(**config) takes, as stored in our safetensors metadata (read
+  // through moge2_table(), model/config_tables.h); std::invalid_argument
+  // "MoGe-2 config: KEY: problem".
   static MoGe2Config from_json(const nlohmann::json& json);
   static MoGe2Config from_json_text(const std::string& text);
   // MoGe's infer() default: resolution level 0..9 spans num_tokens_range (9 = the maximum).

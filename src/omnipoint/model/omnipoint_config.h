@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "omnipoint/model/conditioning.h"
@@ -27,6 +28,8 @@
 namespace omnipoint::model {
 
 enum class OutputKind { kRayDistance, kXyz };
+// "ray_distance" | "xyz", the config's names.
+const std::vector<std::pair<std::string, OutputKind>>& output_kind_names();
 
 struct OmniPointConfig {
   MoGe2EncoderConfig encoder;
@@ -40,12 +43,14 @@ struct OmniPointConfig {
   OutputKind output = OutputKind::kRayDistance;
   std::array<int64_t, 2> num_tokens_range{1200, 3600};  // as MoGe-2's, for default resolutions
 
-  // Bad JSON, unknown or mistyped keys and inconsistent shapes throw std::invalid_argument.
+  // Read and written through omnipoint_table() (model/config_tables.h). Bad JSON, unknown or
+  // mistyped keys and inconsistent shapes throw std::invalid_argument, one line naming the key
+  // ("OmniPoint config: neck.dim_in[0]: must be encoder.dim_out + 2 (features and uv)").
   static OmniPointConfig from_json(const nlohmann::json& json);
   static OmniPointConfig from_json_text(const std::string& text);
   nlohmann::json to_json() const;
   std::string to_json_text() const;
-  void validate() const;
+  void validate() const;  // the table's checks
 
   // The OmniPoint counterpart of a MoGe-2 model: its encoder, neck, mask and scale heads, and
   // ray/distance (or points) heads shaped like its points head.

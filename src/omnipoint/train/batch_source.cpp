@@ -17,7 +17,6 @@
 #include "omnipoint/data/synth/synth_dataset.h"
 #include "omnipoint/data/transform.h"
 #include "omnipoint/infer/teacher.h"
-#include "omnipoint/io/camera_file.h"
 #include "omnipoint/util/threads.h"
 
 namespace omnipoint::train {
@@ -28,17 +27,14 @@ constexpr uint64_t kBucketStream = 0x6275636b6574ULL;  // and the per-step bucke
 
 std::unique_ptr<data::Dataset> open_source(const DatasetSource& source) {
   if (!source.synth) return data::open_dataset("folders", {source.folders});
-  std::vector<data::synth::SceneKind> scenes;
-  for (const std::string& name : source.synth_source.scenes)
-    scenes.push_back(data::synth::parse_scene_kind(name));
-  std::vector<camera::Camera> cameras;
-  for (const std::string& spec : source.synth_source.cameras) {
-    camera::Camera camera = io::read_camera(spec);
+  std::vector<camera::Camera> cameras;  // parsed at load (train_config.h), here at the bucket size
+  for (camera::Camera camera : source.synth_source.cameras) {
     if (camera.width() != source.width || camera.height() != source.height)
       camera = camera.resized(source.width, source.height);
     cameras.push_back(std::move(camera));
   }
-  return std::make_unique<data::synth::SynthDataset>(std::move(scenes), std::move(cameras));
+  return std::make_unique<data::synth::SynthDataset>(source.synth_source.scenes,
+                                                     std::move(cameras));
 }
 
 std::string source_name(const DatasetSource& source) {

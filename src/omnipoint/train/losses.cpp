@@ -33,10 +33,17 @@ at::Tensor smooth(const at::Tensor& err, double beta) {
 
 }  // namespace
 
+const std::vector<std::pair<std::string, PointLoss>>& point_loss_names() {
+  static const std::vector<std::pair<std::string, PointLoss>> names = {
+      {"decoupled", PointLoss::kDecoupled},
+      {"naive", PointLoss::kNaive},
+      {"disjoint", PointLoss::kDisjoint}};
+  return names;
+}
+
 PointLoss parse_point_loss(const std::string& name) {
-  if (name == "decoupled") return PointLoss::kDecoupled;
-  if (name == "naive") return PointLoss::kNaive;
-  if (name == "disjoint") return PointLoss::kDisjoint;
+  for (const auto& [text, loss] : point_loss_names())
+    if (text == name) return loss;
   throw std::invalid_argument("point loss \"" + name + "\": expected decoupled, naive or disjoint");
 }
 

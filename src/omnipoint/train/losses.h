@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "omnipoint/model/omnipoint_model.h"
@@ -36,8 +37,9 @@
 namespace omnipoint::train {
 
 enum class PointLoss { kDecoupled, kNaive, kDisjoint };
-// "decoupled" | "naive" | "disjoint"; anything else -> std::invalid_argument.
+// "decoupled" | "naive" | "disjoint" (the config's names); anything else -> std::invalid_argument.
 PointLoss parse_point_loss(const std::string& name);
+const std::vector<std::pair<std::string, PointLoss>>& point_loss_names();
 
 struct LossWeights {
   double point = 1.0;

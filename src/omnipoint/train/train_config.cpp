@@ -2,102 +2,347 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <set>
 #include <stdexcept>
-#include <type_traits>
+
+#include "omnipoint/io/camera_file.h"
+#include "omnipoint/util/config.h"
 
 namespace omnipoint::train {
 namespace {
 
 using nlohmann::json;
+using util::ConfigScope;
+using util::ConfigTable;
 
-[[noreturn]] void fail(const std::string& where, const std::string& what) {
-  throw std::invalid_argument("training config: " + where + ": " + what);
-}
+const char* const kDocument = "training config";
 
-const json& object_at(const json& parent, const char* key, const std::string& where) {
-  static const json kEmpty = json::object();
-  if (!parent.contains(key)) return kEmpty;
-  const json& value = parent.at(key);
-  if (!value.is_object()) fail(where + "." + key, "expected a JSON object");
-  return value;
-}
-
-void check_keys(const json& object, const std::set<std::string>& allowed,
-                const std::string& where) {
-  for (const auto& item : object.items())
-    if (!allowed.count(item.key())) fail(where, "unknown key \"" + item.key() + "\"");
-}
-
-// A whole number of JSON `value` that T holds. nlohmann's get<T>() casts whatever it finds,
-// and casting an out-of-range float to an integer is undefined behaviour.
-template <typename T>
-bool whole_number(const json& value, T& out) {
-  using Limits = std::numeric_limits<T>;
-  if (value.is_number_unsigned()) {
-    const auto u = value.get<uint64_t>();
-    if (u > static_cast<uint64_t>(Limits::max())) return false;
-    out = static_cast<T>(u);
-    return true;
+std::string init_name(InitSource source) {
+  switch (source) {
+    case InitSource::kDinoV2:
+      return "dinov2";
+    case InitSource::kMoGe2:
+      return "moge2";
+    case InitSource::kOmniPoint:
+      return "omnipoint";
+    case InitSource::kScratch:
+      break;
   }
-  if (value.is_number_integer()) {
-    const auto i = value.get<int64_t>();
-    if (i < 0 && (!Limits::is_signed || i < static_cast<int64_t>(Limits::min()))) return false;
-    if (i > 0 && static_cast<uint64_t>(i) > static_cast<uint64_t>(Limits::max())) return false;
-    out = static_cast<T>(i);
-    return true;
-  }
-  if (value.is_number_float()) {
-    const double d = value.get<double>();  // 1e4 is a fine step count
-    if (!(d == std::trunc(d)) || d < static_cast<double>(Limits::min()) ||
-        d >= std::ldexp(1.0, Limits::digits))
-      return false;
-    out = static_cast<T>(d);
-    return true;
-  }
-  return false;
+  return "scratch";
 }
 
-// `value` as T, or std::invalid_argument naming `where`.
-template <typename T>
-T convert(const json& value, const std::string& where) {
-  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-    T out{};
-    if (!whole_number(value, out)) fail(where, "expected an integer in range, got " + value.dump());
-    return out;
-  } else if constexpr (std::is_same_v<T, std::vector<int64_t>>) {
-    if (!value.is_array()) fail(where, "expected an array of integers, got " + value.dump());
-    T out;
-    for (const json& item : value) out.push_back(convert<int64_t>(item, where));
-    return out;
-  } else {
+// A camera spec or camera file (io/camera_file.h), read once here; written as its spec line.
+util::ConfigCodec<camera::Camera> camera_codec() {
+  util::ConfigCodec<camera::Camera> codec;
+  codec.read = [](const json& value, const ConfigScope& scope) {
+    const std::string spec = util::config_json::read_text(value, scope);
     try {
-      return value.get<T>();
-    } catch (const json::exception&) {
-      fail(where, "has the wrong type (" + value.dump() + ")");
+      return io::read_camera(spec);
+    } catch (const std::invalid_argument& e) {
+      scope.fail(e.what());
+    } catch (const std::runtime_error& e) {
+      scope.fail(e.what());
     }
+  };
+  codec.write = [](const camera::Camera& camera, json& out) { out = camera.to_spec(); };
+  return codec;
+}
+
+// "image_size": [W, H] into two members.
+template <typename T>
+void image_size_field(ConfigTable<T>& table, int64_t T::*width, int64_t T::*height,
+                      const char* doc) {
+  const auto codec = util::array_codec<int64_t, 2>(util::integer_codec<int64_t>());
+  table.custom(
+      "image_size",
+      [=](const json& value, T& out, const ConfigScope& scope) {
+        const std::array<int64_t, 2> size = codec.read(value, scope);
+        out.*width = size[0];
+        out.*height = size[1];
+      },
+      [=](const T& in, json& out) {
+        codec.write({in.*width, in.*height}, out);
+      },
+      [=](const T& in, const ConfigScope& scope) {
+        if (in.*width < 2 || in.*height < 2) scope.fail("must be [width, height], at least 2 each");
+      },
+      doc);
+}
+
+const ConfigTable<SynthSource>& synth_table() {
+  static const ConfigTable<SynthSource> table = [] {
+    ConfigTable<SynthSource> t;
+    using data::synth::SceneKind;
+    t.field("scenes", &SynthSource::scenes,
+            util::list_codec(util::enum_codec(util::enum_names(
+                std::vector<SceneKind>{SceneKind::kIndoor, SceneKind::kOutdoor, SceneKind::kObject},
+                data::synth::scene_kind_name))),
+            "scene kinds drawn per item")
+        .non_empty();
+    t.field("cameras", &SynthSource::cameras, util::list_codec(camera_codec()),
+            "camera specs or files, drawn per item")
+        .non_empty();
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<DatasetSource>& source_table() {
+  static const ConfigTable<DatasetSource> table = [] {
+    ConfigTable<DatasetSource> t;
+    t.field("weight", &DatasetSource::weight, "its share of the items").positive();
+    t.exactly_one_of({"synth", "folders"});
+    t.custom(
+         "synth",
+         [](const json& value, DatasetSource& source, const ConfigScope& scope) {
+           source.synth = true;
+           source.synth_source = synth_table().read(value, scope);
+         },
+         [](const DatasetSource& source, json& out) {
+           synth_table().write(source.synth_source, out);
+         },
+         [](const DatasetSource& source, const ConfigScope& scope) {
+           if (source.synth) synth_table().check(source.synth_source, scope);
+         },
+         "scenes rendered on the fly")
+        .written_if([](const DatasetSource& source) { return source.synth; });
+    t.field("folders", &DatasetSource::folders, "a directory of sample folders")
+        .written_if([](const DatasetSource& source) { return !source.synth; });
+    image_size_field(t, &DatasetSource::width, &DatasetSource::height,
+                     "this source's aspect bucket (default: data.image_size)");
+    t.field("labels", &DatasetSource::labelled, "false: its items enter only through A2P");
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<StageConfig>& stage_table() {
+  static const ConfigTable<StageConfig> table = [] {
+    ConfigTable<StageConfig> t;
+    t.field("stage", &StageConfig::stage)
+        .check([](int stage) { return stage >= 1 && stage <= 3; }, "must be 1, 2 or 3");
+    t.field("steps", &StageConfig::steps).at_least(1);
+    t.field("lr_backbone", &StageConfig::lr_backbone).at_least(0.0);
+    t.field("lr_heads", &StageConfig::lr_heads).at_least(0.0);
+    t.field("schedule", &StageConfig::schedule,
+            util::enum_codec<Schedule>(
+                {{"step", Schedule::kStep}, {"flat_cosine", Schedule::kFlatCosine}}));
+    t.field("decay_every", &StageConfig::decay_every, "0: constant").at_least(0);
+    t.field("decay_factor", &StageConfig::decay_factor);
+    t.field("flat_fraction", &StageConfig::flat_fraction).range(0.0, 1.0);
+    t.field("final_factor", &StageConfig::final_factor).range(0.0, 1.0);
+    t.field("warmup_steps", &StageConfig::warmup_steps);
+    t.rule([](const StageConfig& stage, const ConfigScope& scope) {
+      if (stage.warmup_steps < 0 || stage.warmup_steps >= stage.steps)
+        scope.key("warmup_steps").fail("must lie in [0, steps)");
+    });
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<LossWeights>& weights_table() {
+  static const ConfigTable<LossWeights> table = [] {
+    ConfigTable<LossWeights> t;
+    t.field("point", &LossWeights::point);
+    t.field("ray", &LossWeights::ray);
+    t.field("metric", &LossWeights::metric);
+    t.field("normal", &LossWeights::normal);
+    t.field("local", &LossWeights::local);
+    t.field("mask", &LossWeights::mask);
+    t.field("gauge", &LossWeights::gauge);
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<LocalLossOptions>& local_table() {
+  static const ConfigTable<LocalLossOptions> table = [] {
+    ConfigTable<LocalLossOptions> t;
+    t.field("levels", &LocalLossOptions::levels)
+        .check(
+            [](const std::vector<int64_t>& levels) {
+              return std::all_of(levels.begin(), levels.end(), [](int64_t l) { return l > 0; });
+            },
+            "must be positive");
+    t.field("patches_per_item", &LocalLossOptions::patches_per_item).at_least(1);
+    t.field("min_points", &LocalLossOptions::min_points);
+    t.field("fit_points", &LocalLossOptions::fit_points)
+        .check([](int64_t n) { return n == 0 || n >= 3; }, "must be 0 (all points) or at least 3");
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<LossConfig>& loss_table() {
+  static const ConfigTable<LossConfig> table = [] {
+    ConfigTable<LossConfig> t;
+    t.field("point_loss", &LossConfig::point_loss, util::enum_codec(point_loss_names()));
+    t.field("align_trunc", &LossConfig::align_trunc);
+    t.field("align_points", &LossConfig::align_points)
+        .check([](int64_t n) { return n == 0 || n >= 16; },
+               "must be 0 (every labelled pixel) or at least 16");
+    t.field("weights", &LossConfig::weights, util::struct_codec(weights_table()));
+    t.field("local", &LossConfig::local, util::struct_codec(local_table()));
+    return t;
+  }();
+  return table;
+}
+
+const ConfigTable<TrainConfig>& train_table() {
+  static const ConfigTable<TrainConfig> table = [] {
+    using model::Precision;
+    ConfigTable<TrainConfig> t;
+    t.field("output_dir", &TrainConfig::output_dir);
+    t.field("seed", &TrainConfig::seed);
+    t.field("threads", &TrainConfig::threads).at_least(1);
+    t.field(
+        "precision", &TrainConfig::precision,
+        util::enum_codec(util::enum_names(
+            std::vector<Precision>{Precision::kFloat32, Precision::kBFloat16, Precision::kFloat16},
+            model::precision_name)));
+    t.field(
+        "device", &TrainConfig::device,
+        util::enum_codec<TrainDevice>({{"cpu", TrainDevice::kCpu}, {"cuda", TrainDevice::kCuda}}));
+    t.custom(
+         "model",
+         [](const json& value, TrainConfig& c, const ConfigScope& scope) {
+           if (!value.is_object())
+             scope.fail("expected a JSON object, got " + util::config_json::short_text(value));
+           c.model = value;
+         },
+         [](const TrainConfig& c, json& out) { out = c.model; }, {},
+         "the network's OmniPointConfig")
+        .written_if([](const TrainConfig& c) { return !c.model.is_null(); });
+
+    ConfigTable<TrainConfig>& init = t.section("init");
+    init.field("from", &TrainConfig::init_from,
+               util::enum_codec(util::enum_names(
+                   std::vector<InitSource>{InitSource::kScratch, InitSource::kDinoV2,
+                                           InitSource::kMoGe2, InitSource::kOmniPoint},
+                   init_name)));
+    init.field("path", &TrainConfig::init_path);
+    init.field("output", &TrainConfig::init_output, util::enum_codec(model::output_kind_names()));
+
+    ConfigTable<TrainConfig>& data = t.section("data");
+    data.field("batch_size", &TrainConfig::batch_size).at_least(1);
+    image_size_field(data, &TrainConfig::width, &TrainConfig::height, "the default bucket");
+    data.field("num_tokens", &TrainConfig::num_tokens)
+        .check([](const std::array<int64_t, 2>& n) { return n[0] >= 1 && n[0] <= n[1]; },
+               "must be [min, max], 1 <= min <= max");
+    const char* const kNoSources = "expected a non-empty array of data sources";
+    data.custom(
+            "datasets",
+            [](const json& value, TrainConfig& c, const ConfigScope& scope) {
+              const std::size_t count = util::config_json::array_size(value, scope);
+              c.datasets.clear();
+              for (std::size_t i = 0; i < count; ++i) {
+                DatasetSource source;  // its bucket defaults to data.image_size, read above
+                source.width = c.width;
+                source.height = c.height;
+                source_table().read_into(util::config_json::array_item(value, i), source,
+                                         scope.index(i));
+                c.datasets.push_back(std::move(source));
+              }
+            },
+            [](const TrainConfig& c, json& out) {
+              util::config_json::make_array(out);
+              for (const DatasetSource& source : c.datasets)
+                source_table().write(source, util::config_json::append(out));
+            },
+            [kNoSources](const TrainConfig& c, const ConfigScope& scope) {
+              if (c.datasets.empty()) scope.fail(kNoSources);
+              for (std::size_t i = 0; i < c.datasets.size(); ++i)
+                source_table().check(c.datasets[i], scope.index(i));
+            })
+        .required(kNoSources);
+
+    ConfigTable<TrainConfig>& conditions = t.section("conditions", "from stage 2 on");
+    conditions.field("probability", &TrainConfig::condition_probability).range(0.0, 1.0);
+    conditions.field("sparse_ratio", &TrainConfig::sparse_ratio)
+        .check([](const std::array<double, 2>& r) { return r[0] > 0 && r[0] <= r[1] && r[1] <= 1; },
+               "must be [min, max] with 0 < min <= max <= 1");
+
+    ConfigTable<TrainConfig>& augment = t.section("augment");
+    augment.field("p2a", &TrainConfig::p2a);
+    augment.field("p2a_probability", &TrainConfig::p2a_probability).range(0.0, 1.0);
+    augment.field("a2p", &TrainConfig::a2p);
+    augment.field("a2p_probability", &TrainConfig::a2p_probability).range(0.0, 1.0);
+    augment.field("a2p_teacher", &TrainConfig::a2p_teacher);
+    augment.field("a2p_teacher_tokens", &TrainConfig::a2p_teacher_tokens)
+        .check([](int64_t n) { return n >= 0; }, "must be >= 0 (0: the largest of num_tokens)");
+    augment.field("photometric", &TrainConfig::photometric);
+    augment.field("flip", &TrainConfig::flip);
+
+    t.field("loss", &TrainConfig::loss, util::struct_codec(loss_table()));
+    ConfigTable<TrainConfig>& optimizer = t.section("optimizer");
+    optimizer.field("weight_decay", &TrainConfig::weight_decay);
+    optimizer.field("betas", &TrainConfig::betas);
+    optimizer.field("eps", &TrainConfig::eps);
+    optimizer.field("grad_clip", &TrainConfig::grad_clip)
+        .check([](double clip) { return clip >= 0; }, "must be >= 0 (0: no clipping)");
+    t.section("ema")
+        .field("decay", &TrainConfig::ema_decay)
+        .check([](double decay) { return decay >= 0 && decay < 1; }, "must lie in [0, 1)");
+
+    const char* const kNoStages = "expected a non-empty array of training stages";
+    t.field("stages", &TrainConfig::stages, util::list_codec(util::struct_codec(stage_table())))
+        .required(kNoStages)
+        .non_empty(kNoStages);
+    t.field("checkpoint_every", &TrainConfig::checkpoint_every, "0: only at the end").at_least(0);
+    t.field("log_every", &TrainConfig::log_every).at_least(1);
+    t.field("eval_every", &TrainConfig::eval_every, "0: only at the end").at_least(0);
+    t.field("eval_batches", &TrainConfig::eval_batches).at_least(1);
+    t.field("max_nonfinite_steps", &TrainConfig::max_nonfinite_steps).at_least(1);
+
+    t.rule([](const TrainConfig& c, const ConfigScope& scope) {
+      const std::string from = init_name(c.init_from);
+      if (c.init_from != InitSource::kScratch && c.init_path.empty())
+        scope.key("init").key("path").fail("required to initialise from " + from);
+      const bool needs_model =
+          c.init_from == InitSource::kScratch || c.init_from == InitSource::kDinoV2;
+      if (needs_model && c.model.is_null())
+        scope.key("model").fail("required (the network configuration) to initialise from " + from);
+      if (c.init_from == InitSource::kOmniPoint && c.model.is_object()) {
+        for (const auto& item : c.model.items())
+          if (item.key() != "conditioning" && item.key() != "num_tokens_range")
+            scope.key("model")
+                .key(item.key())
+                .fail(
+                    "from an OmniPoint checkpoint only \"conditioning\" and \"num_tokens_range\" "
+                    "may change");
+      }
+      if (c.a2p && c.a2p_teacher.empty())
+        scope.key("augment")
+            .key("a2p_teacher")
+            .fail(
+                "A2P needs a teacher: the path of an OmniPoint checkpoint (e.g. the stage-1 "
+                "model)");
+      bool any_labelled = false;
+      for (std::size_t i = 0; i < c.datasets.size(); ++i) {
+        any_labelled = any_labelled || c.datasets[i].labelled;
+        if (!c.datasets[i].labelled && !c.a2p)
+          scope.key("data")
+              .key("datasets")
+              .index(i)
+              .key("labels")
+              .fail("an unlabelled source needs augment.a2p (A2P pseudo-labels its items)");
+      }
+      if (!any_labelled)
+        scope.key("data").key("datasets").fail("needs at least one labelled source");
+    });
+    return t;
+  }();
+  return table;
+}
+
+// `call`'s std::invalid_argument with "config SOURCE: " in front.
+template <typename Call>
+TrainConfig naming_source(const std::string& source, Call call) {
+  try {
+    return call();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("config " + source + ": " + e.what());
   }
-}
-
-template <typename T>
-T value_or(const json& object, const char* key, T fallback, const std::string& where) {
-  if (!object.contains(key)) return fallback;
-  return convert<T>(object.at(key), where + "." + key);
-}
-
-template <typename T>
-std::array<T, 2> pair_or(const json& object, const char* key, std::array<T, 2> fallback,
-                         const std::string& where) {
-  if (!object.contains(key)) return fallback;
-  const json& value = object.at(key);
-  if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
-    fail(where + "." + key, "expected an array of two numbers");
-  return {convert<T>(value[0], where + "." + key), convert<T>(value[1], where + "." + key)};
-}
-
-void require(bool ok, const std::string& where, const std::string& what) {
-  if (!ok) fail(where, what);
 }
 
 }  // namespace
@@ -127,6 +372,10 @@ int64_t TrainConfig::total_steps() const {
   return total;
 }
 
+TrainConfig TrainConfig::from_json(const json& json) {
+  return util::read_config(train_table(), json, kDocument);
+}
+
 TrainConfig TrainConfig::from_text(const std::string& text, const std::string& source) {
   json root;
   try {
@@ -134,228 +383,19 @@ TrainConfig TrainConfig::from_text(const std::string& text, const std::string& s
   } catch (const json::exception& e) {
     throw std::invalid_argument("config " + source + ": not valid JSON (" + e.what() + ")");
   }
-  try {
-    return from_json(root);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("config " + source + ": " + e.what());
-  }
+  return naming_source(source, [&] { return from_json(root); });
 }
 
-TrainConfig TrainConfig::from_json(const json& root) {
-  if (!root.is_object()) fail("file", "expected a JSON object");
-  check_keys(root,
-             {"output_dir", "seed", "threads", "precision", "device", "model", "init", "data",
-              "conditions", "augment", "loss", "optimizer", "ema", "stages", "checkpoint_every",
-              "log_every", "eval_every", "eval_batches", "max_nonfinite_steps"},
-             "config");
-  TrainConfig c;
-  c.output_dir = value_or<std::string>(root, "output_dir", c.output_dir, "config");
-  c.seed = value_or<uint64_t>(root, "seed", c.seed, "config");
-  c.threads = value_or<int>(root, "threads", c.threads, "config");
-  require(c.threads >= 1, "threads", "must be at least 1");
-  try {
-    c.precision =
-        model::parse_precision(value_or<std::string>(root, "precision", "fp32", "config"));
-  } catch (const std::invalid_argument& e) {
-    fail("precision", e.what());
-  }
-  c.device = value_or<std::string>(root, "device", c.device, "config");
-  require(c.device == "cpu" || c.device == "cuda", "device", "must be \"cpu\" or \"cuda\"");
-  if (root.contains("model")) c.model = object_at(root, "model", "config");
+TrainConfig TrainConfig::load(const std::string& path, const std::vector<std::string>& overrides) {
+  json root = util::read_config_file(path);
+  for (const std::string& assignment : overrides) util::apply_config_override(root, assignment);
+  return naming_source(path, [&] { return from_json(root); });
+}
 
-  const json& init = object_at(root, "init", "config");
-  check_keys(init, {"from", "path", "output"}, "init");
-  c.init_from = value_or<std::string>(init, "from", c.init_from, "init");
-  c.init_path = value_or<std::string>(init, "path", "", "init");
-  c.init_output = value_or<std::string>(init, "output", c.init_output, "init");
-  require(c.init_from == "scratch" || c.init_from == "dinov2" || c.init_from == "moge2" ||
-              c.init_from == "omnipoint",
-          "init.from", "expected scratch, dinov2, moge2 or omnipoint, got \"" + c.init_from + "\"");
-  require(c.init_from == "scratch" || !c.init_path.empty(), "init.path",
-          "required to initialise from " + c.init_from);
-  require((c.init_from != "scratch" && c.init_from != "dinov2") || !c.model.is_null(), "model",
-          "required (the network configuration) to initialise from " + c.init_from);
-  if (c.init_from == "omnipoint" && !c.model.is_null())
-    check_keys(c.model, {"conditioning", "num_tokens_range"},
-               "model (from an OmniPoint checkpoint only \"conditioning\" and \"num_tokens_range\" "
-               "may change)");
-
-  const json& data = object_at(root, "data", "config");
-  check_keys(data, {"batch_size", "image_size", "num_tokens", "datasets"}, "data");
-  c.batch_size = value_or<int64_t>(data, "batch_size", c.batch_size, "data");
-  require(c.batch_size >= 1, "data.batch_size", "must be at least 1");
-  const auto size = pair_or<int64_t>(data, "image_size", {c.width, c.height}, "data");
-  c.width = size[0];
-  c.height = size[1];
-  require(c.width >= 2 && c.height >= 2, "data.image_size",
-          "must be [width, height], at least 2 each");
-  c.num_tokens = pair_or<int64_t>(data, "num_tokens", c.num_tokens, "data");
-  require(c.num_tokens[0] >= 1 && c.num_tokens[0] <= c.num_tokens[1], "data.num_tokens",
-          "must be [min, max], 1 <= min <= max");
-  if (!data.contains("datasets") || !data.at("datasets").is_array() || data.at("datasets").empty())
-    fail("data.datasets", "expected a non-empty array of data sources");
-  for (const json& entry : data.at("datasets")) {
-    const std::string where = "data.datasets[" + std::to_string(c.datasets.size()) + "]";
-    if (!entry.is_object()) fail(where, "expected a JSON object");
-    check_keys(entry, {"weight", "synth", "folders", "image_size", "labels"}, where);
-    DatasetSource source;
-    source.weight = value_or<double>(entry, "weight", 1.0, where);
-    require(source.weight > 0, where + ".weight", "must be positive");
-    const auto bucket = pair_or<int64_t>(entry, "image_size", {c.width, c.height}, where);
-    source.width = bucket[0];
-    source.height = bucket[1];
-    require(source.width >= 2 && source.height >= 2, where + ".image_size",
-            "must be [width, height], at least 2 each");
-    source.labelled = value_or<bool>(entry, "labels", true, where);
-    require(entry.contains("synth") != entry.contains("folders"), where,
-            "needs exactly one of \"synth\" or \"folders\"");
-    if (entry.contains("synth")) {
-      const json& synth = object_at(entry, "synth", where);
-      check_keys(synth, {"scenes", "cameras"}, where + ".synth");
-      source.synth = true;
-      source.synth_source.scenes = value_or<std::vector<std::string>>(
-          synth, "scenes", {"indoor", "outdoor", "object"}, where + ".synth");
-      source.synth_source.cameras =
-          value_or<std::vector<std::string>>(synth, "cameras", {}, where + ".synth");
-      require(!source.synth_source.scenes.empty() && !source.synth_source.cameras.empty(),
-              where + ".synth", "needs non-empty \"scenes\" and \"cameras\"");
-    } else {
-      source.folders = value_or<std::string>(entry, "folders", "", where);
-    }
-    c.datasets.push_back(source);
-  }
-
-  const json& conditions = object_at(root, "conditions", "config");
-  check_keys(conditions, {"probability", "sparse_ratio"}, "conditions");
-  c.condition_probability =
-      value_or<double>(conditions, "probability", c.condition_probability, "conditions");
-  require(c.condition_probability >= 0 && c.condition_probability <= 1, "conditions.probability",
-          "must lie in [0, 1]");
-  c.sparse_ratio = pair_or<double>(conditions, "sparse_ratio", c.sparse_ratio, "conditions");
-  require(c.sparse_ratio[0] > 0 && c.sparse_ratio[0] <= c.sparse_ratio[1] && c.sparse_ratio[1] <= 1,
-          "conditions.sparse_ratio", "must be [min, max] with 0 < min <= max <= 1");
-
-  const json& augment = object_at(root, "augment", "config");
-  check_keys(augment,
-             {"p2a", "p2a_probability", "a2p", "a2p_probability", "a2p_teacher",
-              "a2p_teacher_tokens", "photometric", "flip"},
-             "augment");
-  c.p2a = value_or<bool>(augment, "p2a", false, "augment");
-  c.p2a_probability = value_or<double>(augment, "p2a_probability", c.p2a_probability, "augment");
-  require(c.p2a_probability >= 0 && c.p2a_probability <= 1, "augment.p2a_probability",
-          "must lie in [0, 1]");
-  c.a2p = value_or<bool>(augment, "a2p", false, "augment");
-  c.a2p_probability = value_or<double>(augment, "a2p_probability", c.a2p_probability, "augment");
-  require(c.a2p_probability >= 0 && c.a2p_probability <= 1, "augment.a2p_probability",
-          "must lie in [0, 1]");
-  c.a2p_teacher = value_or<std::string>(augment, "a2p_teacher", "", "augment");
-  c.a2p_teacher_tokens = value_or<int64_t>(augment, "a2p_teacher_tokens", 0, "augment");
-  require(!c.a2p || !c.a2p_teacher.empty(), "augment.a2p_teacher",
-          "A2P needs a teacher: the path of an OmniPoint checkpoint (e.g. the stage-1 model)");
-  require(c.a2p_teacher_tokens >= 0, "augment.a2p_teacher_tokens",
-          "must be >= 0 (0: the largest of num_tokens)");
-  c.photometric = value_or<bool>(augment, "photometric", false, "augment");
-  c.flip = value_or<bool>(augment, "flip", false, "augment");
-  bool any_labelled = false;
-  for (size_t i = 0; i < c.datasets.size(); ++i) {
-    any_labelled = any_labelled || c.datasets[i].labelled;
-    require(c.datasets[i].labelled || c.a2p, "data.datasets[" + std::to_string(i) + "].labels",
-            "an unlabelled source needs augment.a2p (A2P pseudo-labels its items)");
-  }
-  require(any_labelled, "data.datasets", "needs at least one labelled source");
-
-  const json& loss = object_at(root, "loss", "config");
-  check_keys(loss, {"point_loss", "align_trunc", "align_points", "weights", "local"}, "loss");
-  c.loss.point_loss =
-      parse_point_loss(value_or<std::string>(loss, "point_loss", "decoupled", "loss"));
-  c.loss.align_trunc = value_or<double>(loss, "align_trunc", c.loss.align_trunc, "loss");
-  c.loss.align_points = value_or<int64_t>(loss, "align_points", c.loss.align_points, "loss");
-  require(c.loss.align_points == 0 || c.loss.align_points >= 16, "loss.align_points",
-          "must be 0 (every labelled pixel) or at least 16");
-  const json& weights = object_at(loss, "weights", "loss");
-  check_keys(weights, {"point", "ray", "metric", "normal", "local", "mask", "gauge"},
-             "loss.weights");
-  LossWeights& w = c.loss.weights;
-  w.point = value_or<double>(weights, "point", w.point, "loss.weights");
-  w.ray = value_or<double>(weights, "ray", w.ray, "loss.weights");
-  w.metric = value_or<double>(weights, "metric", w.metric, "loss.weights");
-  w.normal = value_or<double>(weights, "normal", w.normal, "loss.weights");
-  w.local = value_or<double>(weights, "local", w.local, "loss.weights");
-  w.mask = value_or<double>(weights, "mask", w.mask, "loss.weights");
-  w.gauge = value_or<double>(weights, "gauge", w.gauge, "loss.weights");
-  const json& local = object_at(loss, "local", "loss");
-  check_keys(local, {"levels", "patches_per_item", "min_points", "fit_points"}, "loss.local");
-  c.loss.local.levels =
-      value_or<std::vector<int64_t>>(local, "levels", c.loss.local.levels, "loss.local");
-  c.loss.local.patches_per_item =
-      value_or<int64_t>(local, "patches_per_item", c.loss.local.patches_per_item, "loss.local");
-  c.loss.local.min_points =
-      value_or<int64_t>(local, "min_points", c.loss.local.min_points, "loss.local");
-  c.loss.local.fit_points =
-      value_or<int64_t>(local, "fit_points", c.loss.local.fit_points, "loss.local");
-  require(c.loss.local.fit_points == 0 || c.loss.local.fit_points >= 3, "loss.local.fit_points",
-          "must be 0 (all points) or at least 3");
-  for (const int64_t level : c.loss.local.levels)
-    require(level > 0, "loss.local.levels", "must be positive");
-  require(c.loss.local.patches_per_item >= 1, "loss.local.patches_per_item", "must be at least 1");
-
-  const json& optimizer = object_at(root, "optimizer", "config");
-  check_keys(optimizer, {"weight_decay", "betas", "eps", "grad_clip"}, "optimizer");
-  c.weight_decay = value_or<double>(optimizer, "weight_decay", c.weight_decay, "optimizer");
-  c.betas = pair_or<double>(optimizer, "betas", c.betas, "optimizer");
-  c.eps = value_or<double>(optimizer, "eps", c.eps, "optimizer");
-  c.grad_clip = value_or<double>(optimizer, "grad_clip", c.grad_clip, "optimizer");
-  require(c.grad_clip >= 0, "optimizer.grad_clip", "must be >= 0 (0: no clipping)");
-  const json& ema = object_at(root, "ema", "config");
-  check_keys(ema, {"decay"}, "ema");
-  c.ema_decay = value_or<double>(ema, "decay", c.ema_decay, "ema");
-  require(c.ema_decay >= 0 && c.ema_decay < 1, "ema.decay", "must lie in [0, 1)");
-
-  if (!root.contains("stages") || !root.at("stages").is_array() || root.at("stages").empty())
-    fail("stages", "expected a non-empty array of training stages");
-  for (const json& entry : root.at("stages")) {
-    const std::string where = "stages[" + std::to_string(c.stages.size()) + "]";
-    if (!entry.is_object()) fail(where, "expected a JSON object");
-    check_keys(entry,
-               {"stage", "steps", "lr_backbone", "lr_heads", "schedule", "decay_every",
-                "decay_factor", "flat_fraction", "final_factor", "warmup_steps"},
-               where);
-    StageConfig stage;
-    stage.stage = value_or<int>(entry, "stage", stage.stage, where);
-    require(stage.stage >= 1 && stage.stage <= 3, where + ".stage", "must be 1, 2 or 3");
-    stage.steps = value_or<int64_t>(entry, "steps", 0, where);
-    require(stage.steps >= 1, where + ".steps", "must be at least 1");
-    stage.lr_backbone = value_or<double>(entry, "lr_backbone", stage.lr_backbone, where);
-    stage.lr_heads = value_or<double>(entry, "lr_heads", stage.lr_heads, where);
-    const auto schedule = value_or<std::string>(entry, "schedule", "step", where);
-    require(schedule == "step" || schedule == "flat_cosine", where + ".schedule",
-            "expected step or flat_cosine, got \"" + schedule + "\"");
-    stage.schedule = schedule == "step" ? Schedule::kStep : Schedule::kFlatCosine;
-    stage.decay_every = value_or<int64_t>(entry, "decay_every", stage.decay_every, where);
-    stage.decay_factor = value_or<double>(entry, "decay_factor", stage.decay_factor, where);
-    stage.flat_fraction = value_or<double>(entry, "flat_fraction", stage.flat_fraction, where);
-    stage.final_factor = value_or<double>(entry, "final_factor", stage.final_factor, where);
-    stage.warmup_steps = value_or<int64_t>(entry, "warmup_steps", stage.warmup_steps, where);
-    require(stage.lr_backbone >= 0 && stage.lr_heads >= 0, where, "learning rates must be >= 0");
-    require(stage.decay_every >= 0, where + ".decay_every", "must be >= 0");
-    require(stage.flat_fraction >= 0 && stage.flat_fraction <= 1, where + ".flat_fraction",
-            "must lie in [0, 1]");
-    require(stage.final_factor >= 0 && stage.final_factor <= 1, where + ".final_factor",
-            "must lie in [0, 1]");
-    require(stage.warmup_steps >= 0 && stage.warmup_steps < stage.steps, where + ".warmup_steps",
-            "must lie in [0, steps)");
-    c.stages.push_back(stage);
-  }
-  c.checkpoint_every = value_or<int64_t>(root, "checkpoint_every", c.checkpoint_every, "config");
-  c.log_every = value_or<int64_t>(root, "log_every", c.log_every, "config");
-  c.eval_every = value_or<int64_t>(root, "eval_every", c.eval_every, "config");
-  c.eval_batches = value_or<int64_t>(root, "eval_batches", c.eval_batches, "config");
-  c.max_nonfinite_steps =
-      value_or<int64_t>(root, "max_nonfinite_steps", c.max_nonfinite_steps, "config");
-  require(c.checkpoint_every >= 0 && c.log_every >= 1 && c.eval_every >= 0 && c.eval_batches >= 1,
-          "config", "checkpoint_every/eval_every must be >= 0, log_every/eval_batches >= 1");
-  require(c.max_nonfinite_steps >= 1, "max_nonfinite_steps", "must be at least 1");
-  return c;
+json TrainConfig::to_json() const {
+  json out;
+  train_table().write(*this, out);
+  return out;
 }
 
 }  // namespace omnipoint::train

@@ -37,7 +37,13 @@
 //   "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4,
 //   "max_nonfinite_steps": 10
 // }
-// Every key is optional except "stages" and the data sources; unknown keys are errors.
+// Every key is optional except "stages" and the data sources; unknown keys are errors. Enums
+// are parsed once, at load, and so are the synth cameras (spec strings or camera files, into
+// camera::Camera). The table of keys, defaults and checks is in train_config.cpp (util/config.h
+// reads and writes through it).
+// Files: "extends": "base.json" takes a base file's keys (relative to the file; objects merge,
+// arrays and values replace, null deletes), and `omnipoint train --set key.path=value`
+// overrides any key (docs/TRAINING.md).
 // Stages run in the order given. Stage 1: the conditions are off; stage 2: each condition is on
 // per item with "probability"; stage 3: only the mask head trains (learning rate lr_heads), the
 // objective is L_mask alone, the conditions as in stage 2.
@@ -48,14 +54,19 @@
 #include <string>
 #include <vector>
 
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/data/synth/scene.h"
+#include "omnipoint/model/omnipoint_config.h"
 #include "omnipoint/model/precision.h"
 #include "omnipoint/train/losses.h"
 
 namespace omnipoint::train {
 
 struct SynthSource {
-  std::vector<std::string> scenes;   // synth scene kinds
-  std::vector<std::string> cameras;  // camera specs; resized to the image size
+  std::vector<data::synth::SceneKind> scenes{data::synth::SceneKind::kIndoor,
+                                             data::synth::SceneKind::kOutdoor,
+                                             data::synth::SceneKind::kObject};
+  std::vector<camera::Camera> cameras;  // from specs or camera files; resized to the image size
 };
 
 struct DatasetSource {
@@ -90,17 +101,22 @@ struct StageConfig {
   double lr_factor(int64_t in_stage) const;
 };
 
+// Where the model, its optimiser state and the losses live ("cuda": GPU LOCAL_RANK).
+enum class TrainDevice { kCpu, kCuda };
+// The initial weights: fresh, a DINOv2 backbone, a MoGe-2 model or an OmniPoint model.
+enum class InitSource { kScratch, kDinoV2, kMoGe2, kOmniPoint };
+
 struct TrainConfig {
   std::string output_dir = "train_output";
   uint64_t seed = 0;
   int threads = 1;
   model::Precision precision = model::Precision::kFloat32;
-  std::string device = "cpu";  // "cpu" | "cuda"
+  TrainDevice device = TrainDevice::kCpu;
 
-  nlohmann::json model;  // OmniPointConfig JSON
-  std::string init_from = "scratch";
+  nlohmann::json model;  // OmniPointConfig JSON (null: none given)
+  InitSource init_from = InitSource::kScratch;
   std::string init_path;
-  std::string init_output = "ray_distance";
+  model::OutputKind init_output = model::OutputKind::kRayDistance;  // init from MoGe-2 only
 
   int64_t batch_size = 2;
   int64_t width = 56, height = 56;
@@ -132,10 +148,18 @@ struct TrainConfig {
   int64_t max_nonfinite_steps = 10;
 
   int64_t total_steps() const;
-  // std::invalid_argument naming the key and what was expected.
+  // std::invalid_argument, one line naming the key path and what was expected
+  // ("training config: stages[1].steps: must be at least 1").
   static TrainConfig from_json(const nlohmann::json& json);
-  // The config file's text; errors (not JSON, or from_json's) name `source`.
+  // The config file's text (no "extends": there is no file to resolve it against); errors (not
+  // JSON, or from_json's) name `source`.
   static TrainConfig from_text(const std::string& text, const std::string& source);
+  // The file `path` with its "extends" chain merged and the `overrides` ("key.path=value",
+  // util/config.h) applied, then read as from_json; errors name the file or the override.
+  static TrainConfig load(const std::string& path, const std::vector<std::string>& overrides = {});
+  // Every key, resolved (the cameras as specs): what a run records. from_json reads it back
+  // to an equal config.
+  nlohmann::json to_json() const;
 };
 
 }  // namespace omnipoint::train

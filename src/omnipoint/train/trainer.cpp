@@ -60,7 +60,7 @@ auto state_key(const at::Tensor& parameter) {
 model::OmniPointModel build_model(const TrainConfig& config) {
   using namespace model;
   at::manual_seed(config.seed);  // the initial weights of fresh layers follow the config's seed
-  if (config.init_from == "omnipoint") {
+  if (config.init_from == InitSource::kOmniPoint) {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
     if (config.model.is_null()) return load_omnipoint_model(file.tensors, file.metadata);
     // Fine-tuning with other condition branches (the state-embedding and smoothing ablations
@@ -81,15 +81,14 @@ model::OmniPointModel build_model(const TrainConfig& config) {
                                   "\" has another shape than the config's");
     return network;
   }
-  if (config.init_from == "moge2") {
+  if (config.init_from == InitSource::kMoGe2) {
     const io::SafetensorsFile file = io::read_safetensors(config.init_path);
     const auto found = file.metadata.find("config");
     if (found == file.metadata.end())
       throw std::invalid_argument("init.path \"" + config.init_path +
                                   "\": a MoGe-2 checkpoint needs its config in the metadata");
     const MoGe2Config moge2 = MoGe2Config::from_json_text(found->second);
-    OmniPointConfig omni_config = OmniPointConfig::from_moge2(
-        moge2, config.init_output == "xyz" ? OutputKind::kXyz : OutputKind::kRayDistance);
+    OmniPointConfig omni_config = OmniPointConfig::from_moge2(moge2, config.init_output);
     if (!config.model.is_null() && config.model.contains("conditioning"))
       omni_config.conditioning = OmniPointConfig::from_json(config.model).conditioning;
     OmniPointModel network(omni_config);
@@ -97,7 +96,7 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     return network;
   }
   OmniPointModel network(OmniPointConfig::from_json(config.model));
-  if (config.init_from == "dinov2")
+  if (config.init_from == InitSource::kDinoV2)
     init_from_dinov2(*network, io::read_safetensors(config.init_path).tensors);
   return network;
 }
@@ -108,12 +107,12 @@ Trainer::Trainer(TrainConfig config, model::OmniPointModel network)
 namespace {
 
 // "cuda" is the GPU of the process's LOCAL_RANK (one process per GPU, docs/TRAINING.md).
-at::Device training_device(const std::string& name, int local_rank) {
-  if (name == "cpu") return at::kCPU;
+at::Device training_device(TrainDevice device, int local_rank) {
+  if (device == TrainDevice::kCpu) return at::kCPU;
   if (!at::hasCUDA())
-    throw std::invalid_argument("training: device \"" + name +
-                                "\": this build has no CUDA (LibTorch without CUDA, or no GPU "
-                                "visible); use \"cpu\"");
+    throw std::invalid_argument(
+        "training: device \"cuda\": this build has no CUDA (LibTorch without CUDA, or no GPU "
+        "visible); use \"cpu\"");
   return {at::kCUDA, static_cast<c10::DeviceIndex>(local_rank)};
 }
 
