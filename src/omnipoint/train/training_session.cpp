@@ -140,7 +140,7 @@ void TrainingSession::Run() {
   // RANK, WORLD_SIZE, ... from a launcher (docs/TRAINING.md); a single process without them.
   // NCCL between GPUs where the config trains on them, Gloo otherwise.
   DistributedOptions distributed_options;
-  distributed_options.cuda = config.device == "cuda";
+  distributed_options.cuda = config.device == TrainDevice::kCuda;
   const DistributedContext distributed = DistributedContext::from_environment(distributed_options);
   Trainer trainer(config, network, distributed);
   if (resume) trainer.restore(resumed);
