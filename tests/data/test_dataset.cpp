@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "omnipoint/data/dataset.h"
+#include "omnipoint/data/dataset_formats.h"
 #include "omnipoint/data/moge_format.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/data/synth/random.h"
@@ -134,6 +135,35 @@ TEST(Dataset, FormatsAreRegisteredByName) {
                                        }),
                std::invalid_argument);
   EXPECT_THROW(register_dataset_format("", nullptr), std::invalid_argument);
+}
+
+TEST(Dataset, FormatsDeclareTheirOptionsAndOthersAreRefused) {
+  for (const DatasetFormat& format : builtin_dataset_formats()) {
+    EXPECT_FALSE(format.summary.empty()) << format.name;
+    EXPECT_TRUE(format.open) << format.name;
+  }
+  DatasetFormat format;
+  format.name = "with_options";
+  format.summary = "items named after the option";
+  format.options = {{"camera", "which camera (default: left)"}};
+  format.open = [](const DatasetLocation& location) {
+    return std::make_unique<ConstantDataset>(option_or(location, "camera", "left") + "@" +
+                                             location.split);
+  };
+  register_dataset_format(format);
+  DatasetLocation location{"root"};
+  EXPECT_EQ(open_dataset("with_options", location)->item_name({0, 0}), "left@#0");
+  location.split = "val";
+  location.options = {{"camera", "right"}};
+  EXPECT_EQ(open_dataset("with_options", location)->item_name({1, 0}), "right@val#1");
+  location.options = {{"camera", "right"}, {"cam", "x"}};
+  try {
+    open_dataset("with_options", location);
+    FAIL() << "an undeclared option was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "dataset format \"with_options\": no option \"cam\" (its options: camera)");
+  }
 }
 
 // Items are (scene kind, camera) pairs; each draw picks the kind, the camera, then the seed

@@ -1,95 +1,30 @@
 #include "omnipoint/data/dataset.h"
 
 #include <algorithm>
-#include <filesystem>
 #include <map>
 #include <mutex>
 #include <new>
+#include <optional>
 #include <tuple>
 #include <utility>
 
-#include "omnipoint/data/moge_format.h"
+#include "omnipoint/data/dataset_formats.h"
 #include "omnipoint/data/synth/random.h"
-#include "omnipoint/io/staged_folder.h"
 
 namespace omnipoint::data {
 namespace {
-
-namespace fs = std::filesystem;
-
-// A reader's error as the SampleError a caller may skip the item for (memory exhaustion is no
-// property of the item and stays what it is).
-template <typename Read>
-Sample read_or_sample_error(const Read& read) {
-  try {
-    return read();
-  } catch (const std::bad_alloc&) {
-    throw;
-  } catch (const SampleError&) {
-    throw;
-  } catch (const std::exception& error) {
-    throw SampleError(error.what());
-  }
-}
-
-// Items named by folder paths, read by `read_folder`.
-class FolderListDataset : public Dataset {
- public:
-  FolderListDataset(std::vector<std::string> folders,
-                    std::function<Sample(const std::string&)> read_folder)
-      : folders_(std::move(folders)), read_folder_(std::move(read_folder)) {}
-
-  int64_t size() const override { return static_cast<int64_t>(folders_.size()); }
-  Sample item(const ItemIndex& index) const override {
-    const std::string& folder = folders_.at(static_cast<size_t>(index.index));
-    return read_or_sample_error([&] { return read_folder_(folder); });
-  }
-  std::string item_name(const ItemIndex& index) const override {
-    return folders_.at(static_cast<size_t>(index.index));
-  }
-
- private:
-  std::vector<std::string> folders_;
-  std::function<Sample(const std::string&)> read_folder_;
-};
-
-std::unique_ptr<Dataset> open_sample_folders(const DatasetLocation& location) {
-  const std::string& root = location.path;
-  std::error_code error;
-  if (!fs::is_directory(root, error))
-    throw std::runtime_error("dataset \"" + root + "\": not a directory of sample folders");
-  std::vector<std::string> folders;
-  // (A staging folder is a sample still being written by `omnipoint synth`.)
-  for (const fs::directory_entry& entry : fs::directory_iterator(root))
-    if (entry.is_directory() && !io::is_staging_folder(entry.path()))
-      folders.push_back(entry.path().string());
-  if (folders.empty())
-    throw std::runtime_error("dataset \"" + root + "\": holds no sample folders");
-  std::sort(folders.begin(), folders.end());
-  return std::make_unique<FolderListDataset>(std::move(folders), read_sample);
-}
-
-std::unique_ptr<Dataset> open_moge_benchmark(const DatasetLocation& location) {
-  std::vector<std::string> instances;
-  try {
-    instances = list_moge_instances(location.path);
-  } catch (const std::exception& error) {
-    throw std::runtime_error("dataset \"" + location.path + "\": " + error.what());
-  }
-  if (instances.empty())
-    throw std::runtime_error("dataset \"" + location.path + "\": holds no MoGe instances");
-  const bool metric = location.metric;
-  return std::make_unique<FolderListDataset>(
-      std::move(instances),
-      [metric](const std::string& folder) { return read_moge_instance(folder, metric); });
-}
 
 // The registered formats, the built-in ones from the start (a reader registered by a static
 // object in a static library's unreferenced file would never run).
 struct Registry {
   std::mutex mutex;
-  std::map<std::string, DatasetReader> readers{{"folders", open_sample_folders},
-                                               {"moge", open_moge_benchmark}};
+  std::map<std::string, DatasetFormat> formats;
+  Registry() {
+    for (DatasetFormat& format : builtin_dataset_formats()) {
+      const std::string name = format.name;
+      formats.emplace(name, std::move(format));
+    }
+  }
 };
 Registry& registry() {
   static Registry instance;
@@ -97,6 +32,31 @@ Registry& registry() {
 }
 
 }  // namespace
+
+ListDataset::ListDataset(std::vector<std::string> items,
+                         std::function<Sample(const std::string&)> read)
+    : items_(std::move(items)), read_(std::move(read)) {}
+
+int64_t ListDataset::size() const {
+  return static_cast<int64_t>(items_.size());
+}
+
+Sample ListDataset::item(const ItemIndex& index) const {
+  const std::string& name = items_.at(static_cast<size_t>(index.index));
+  try {
+    return read_(name);
+  } catch (const std::bad_alloc&) {
+    throw;  // no property of the item
+  } catch (const SampleError&) {
+    throw;
+  } catch (const std::exception& error) {
+    throw SampleError(error.what());
+  }
+}
+
+std::string ListDataset::item_name(const ItemIndex& index) const {
+  return items_.at(static_cast<size_t>(index.index));
+}
 
 bool operator<(const ItemIndex& a, const ItemIndex& b) {
   return std::tie(a.index, a.seed) < std::tie(b.index, b.seed);
@@ -108,38 +68,67 @@ ItemIndex Dataset::draw(synth::Random& random) const {
   return {random.integer(0, static_cast<int>(size()) - 1), 0};
 }
 
-void register_dataset_format(const std::string& name, DatasetReader reader) {
-  if (name.empty() || !reader)
+void register_dataset_format(DatasetFormat format) {
+  if (format.name.empty() || !format.open)
     throw std::invalid_argument("register_dataset_format: needs a name and a reader");
   Registry& formats = registry();
   const std::lock_guard<std::mutex> lock(formats.mutex);
-  if (!formats.readers.emplace(name, std::move(reader)).second)
+  const std::string name = format.name;
+  if (!formats.formats.emplace(name, std::move(format)).second)
     throw std::invalid_argument("dataset format \"" + name + "\" is registered already");
 }
 
-std::vector<std::string> dataset_formats() {
+void register_dataset_format(const std::string& name, DatasetReader reader) {
+  DatasetFormat format;
+  format.name = name;
+  format.open = std::move(reader);
+  register_dataset_format(std::move(format));
+}
+
+std::vector<DatasetFormat> dataset_format_list() {
   Registry& formats = registry();
   const std::lock_guard<std::mutex> lock(formats.mutex);
+  std::vector<DatasetFormat> list;
+  for (const auto& entry : formats.formats) list.push_back(entry.second);
+  return list;
+}
+
+std::vector<std::string> dataset_formats() {
   std::vector<std::string> names;
-  for (const auto& entry : formats.readers) names.push_back(entry.first);
+  for (const DatasetFormat& format : dataset_format_list()) names.push_back(format.name);
   return names;
 }
 
 std::unique_ptr<Dataset> open_dataset(const std::string& format, const DatasetLocation& location) {
-  DatasetReader reader;
+  std::optional<DatasetFormat> found;
   {
     Registry& formats = registry();
     const std::lock_guard<std::mutex> lock(formats.mutex);
-    const auto found = formats.readers.find(format);
-    if (found != formats.readers.end()) reader = found->second;
+    const auto entry = formats.formats.find(format);
+    if (entry != formats.formats.end()) found = entry->second;
   }
-  if (!reader) {
-    std::string known;
-    for (const std::string& name : dataset_formats()) known += (known.empty() ? "" : ", ") + name;
-    throw std::invalid_argument("dataset format \"" + format + "\": unknown (known: " + known +
-                                ")");
-  }
-  return reader(location);
+  const auto listed = [](const auto& names) {
+    std::string text;
+    for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
+    return text.empty() ? std::string("none") : text;
+  };
+  if (!found)
+    throw std::invalid_argument("dataset format \"" + format +
+                                "\": unknown (known: " + listed(dataset_formats()) + ")");
+  for (const auto& [name, value] : location.options)
+    if (found->options.count(name) == 0) {
+      std::vector<std::string> known;
+      for (const auto& option : found->options) known.push_back(option.first);
+      throw std::invalid_argument("dataset format \"" + format + "\": no option \"" + name +
+                                  "\" (its options: " + listed(known) + ")");
+    }
+  return found->open(location);
+}
+
+std::string option_or(const DatasetLocation& location, const std::string& name,
+                      const std::string& fallback) {
+  const auto found = location.options.find(name);
+  return found == location.options.end() ? fallback : found->second;
 }
 
 }  // namespace omnipoint::data

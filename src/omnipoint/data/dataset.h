@@ -2,7 +2,7 @@
 // Map-style datasets: a number of items and the item at an index, each a data::Sample — what
 // a dataset reader provides, apart from how items are drawn into batches and stacked (that is
 // the training's: train/batch_source.h). A reader of a format on disk registers itself under a
-// name (open_dataset); the built-in ones:
+// name (open_dataset); the built-in ones (the table in dataset_formats.cpp):
 //   "folders"  a directory of sample folders in the format of sample.h (one item per folder,
 //              in name order; a staging folder (io/staged_folder.h) is a sample still
 //              being written, left out)
@@ -10,6 +10,7 @@
 // The synthetic scene engine is a dataset too (synth/synth_dataset.h), made in memory.
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -53,21 +54,58 @@ class Dataset {
   virtual ItemIndex draw(synth::Random& random) const;
 };
 
+// A dataset of named items, each read by a function of its name (a folder, a file, a line of
+// a split list): what most readers of a format on disk are. A reader's exception becomes a
+// SampleError (its text names the item); memory exhaustion stays what it is.
+class ListDataset : public Dataset {
+ public:
+  ListDataset(std::vector<std::string> items, std::function<Sample(const std::string&)> read);
+  int64_t size() const override;
+  Sample item(const ItemIndex& index) const override;
+  std::string item_name(const ItemIndex& index) const override;
+
+ private:
+  std::vector<std::string> items_;
+  std::function<Sample(const std::string&)> read_;
+};
+
 // Where a dataset on disk is, and what its files may not say themselves.
 struct DatasetLocation {
   std::string path;     // the dataset's root folder
   bool metric = false;  // formats without a per-sample flag ("moge"): the depth is in metres
+  // The format's split: one of its own split names, or a split-list file (one item a line, as
+  // the format's documentation says); "" for every item the root holds.
+  std::string split;
+  // The format's options by name (e.g. a camera, a ground-truth rule), as the user wrote them;
+  // open_dataset refuses a name the format does not declare.
+  std::map<std::string, std::string> options;
 };
 
 using DatasetReader = std::function<std::unique_ptr<Dataset>(const DatasetLocation&)>;
 
-// Adds a format under `name`; std::invalid_argument when the name is empty or taken.
+// A format, as `omnipoint data formats` lists it.
+struct DatasetFormat {
+  std::string name;     // "kitti360", "folders", ...
+  std::string summary;  // one line: what the reader expects under the root
+  // The options it takes: name -> one line of help (values and the default).
+  std::map<std::string, std::string> options;
+  std::vector<std::string> splits;  // its named splits, if it has any
+  DatasetReader open;
+};
+
+// Adds a format; std::invalid_argument when the name is empty or taken or there is no reader.
+void register_dataset_format(DatasetFormat format);
 void register_dataset_format(const std::string& name, DatasetReader reader);
-// The names of the registered formats, sorted.
+// The registered formats (their names sorted), and their names alone.
+std::vector<DatasetFormat> dataset_format_list();
 std::vector<std::string> dataset_formats();
-// The dataset at `location` in format `format`. An unknown format -> std::invalid_argument
-// naming the known ones; a root that is missing or holds no item -> std::runtime_error naming
-// it (the reader's).
+// The dataset at `location` in format `format`. An unknown format or an option the format does
+// not declare -> std::invalid_argument naming the known ones; a root that is missing or holds
+// no item -> std::runtime_error naming it (the reader's).
 std::unique_ptr<Dataset> open_dataset(const std::string& format, const DatasetLocation& location);
+
+// The value of option `name`, or `fallback` when not given.
+std::string option_or(const DatasetLocation& location, const std::string& name,
+                      const std::string& fallback);
 
 }  // namespace omnipoint::data

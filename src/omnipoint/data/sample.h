@@ -22,6 +22,9 @@ struct Sample {
   at::Tensor distance;  // (H, W) float32 along the camera's unit rays, 0 where mask is false
   at::Tensor mask;      // (H, W) bool: labelled geometry
   bool metric = false;  // distances in metres (else up to an unknown scale)
+  // (4, 4) float64 world-from-camera pose where the dataset has one (sequences, rigs);
+  // undefined otherwise. Nothing a single-image task needs.
+  at::Tensor world_from_camera;
 };
 
 // What meta.json says: the camera and whether distances are metric ("metric": bool, false

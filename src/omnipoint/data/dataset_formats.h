@@ -1,0 +1,17 @@
+#pragma once
+// The dataset formats built into the library, as one table (dataset_formats.cpp), each entry a
+// reader's DatasetFormat (dataset.h). A new reader: its own file beside the others, its
+// DatasetFormat declared here, one line in the table; its test writes files in the format's
+// exact native layout with a known truth and reads them back (tests/data/).
+#include <vector>
+
+#include "omnipoint/data/dataset.h"
+
+namespace omnipoint::data {
+
+std::vector<DatasetFormat> builtin_dataset_formats();
+
+DatasetFormat sample_folders_format();  // "folders": this project's sample folders (sample.h)
+DatasetFormat moge_format();            // "moge": MoGe's evaluation benchmarks (moge_format.h)
+
+}  // namespace omnipoint::data
