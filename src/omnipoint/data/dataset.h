@@ -75,10 +75,10 @@ struct DatasetLocation {
   bool metric = false;  // formats without a per-sample flag ("moge"): the depth is in metres
   // The format's split: one of its own split names, or a split-list file (one item a line, as
   // the format's documentation says); "" for every item the root holds.
-  std::string split;
+  std::string split = {};
   // The format's options by name (e.g. a camera, a ground-truth rule), as the user wrote them;
   // open_dataset refuses a name the format does not declare.
-  std::map<std::string, std::string> options;
+  std::map<std::string, std::string> options = {};
 };
 
 using DatasetReader = std::function<std::unique_ptr<Dataset>(const DatasetLocation&)>;
@@ -88,7 +88,7 @@ struct DatasetFormat {
   std::string name;     // "kitti360", "folders", ...
   std::string summary;  // one line: what the reader expects under the root
   // The options it takes: name -> one line of help (values and the default).
-  std::map<std::string, std::string> options;
+  std::map<std::string, std::string> options = {};
   std::vector<std::string> splits;  // its named splits, if it has any
   DatasetReader open;
 };

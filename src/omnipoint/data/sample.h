@@ -24,7 +24,7 @@ struct Sample {
   bool metric = false;  // distances in metres (else up to an unknown scale)
   // (4, 4) float64 world-from-camera pose where the dataset has one (sequences, rigs);
   // undefined otherwise. Nothing a single-image task needs.
-  at::Tensor world_from_camera;
+  at::Tensor world_from_camera = {};
 };
 
 // What meta.json says: the camera and whether distances are metric ("metric": bool, false
