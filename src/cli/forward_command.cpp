@@ -1,5 +1,5 @@
 // omnipoint forward: runs a network on an already-loaded image array and writes its raw
-// outputs as .npy files named after them (DESIGN.md).
+// outputs as .npy files named after them (docs/DESIGN.md).
 #include <ATen/ATen.h>
 #include <CLI/CLI.hpp>
 

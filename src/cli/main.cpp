@@ -1,4 +1,4 @@
-// omnipoint: the command-line tool (contract in DESIGN.md).
+// omnipoint: the command-line tool (contract in docs/DESIGN.md).
 #include <c10/util/Exception.h>
 #include <CLI/CLI.hpp>
 
@@ -119,7 +119,7 @@ int main(int argc, char** argv) try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    // Bad arguments: one line on stderr, like every other error (DESIGN.md).
+    // Bad arguments: one line on stderr, like every other error (docs/DESIGN.md).
     const std::string missing =
         dynamic_cast<const CLI::RequiredError*>(&e) ? missing_command_error(app) : "";
     std::cerr << "omnipoint: error: "

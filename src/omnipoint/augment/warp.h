@@ -3,7 +3,7 @@
 // and a virtual camera that share one optical centre, and the sampling of distance maps at
 // sub-pixel positions without blending across depth edges.
 //
-// Conventions: camera frames as DESIGN.md (x right, y down, z forward). A rotation R (3, 3)
+// Conventions: camera frames as docs/DESIGN.md (x right, y down, z forward). A rotation R (3, 3)
 // maps virtual-camera coordinates to source-camera coordinates, X_source = R · X_virtual, so
 // its third column is the virtual optical axis seen from the source. Angles in degrees:
 // yaw turns the axis from +z towards +x, pitch > 0 looks up (towards −y), roll turns about
@@ -20,7 +20,7 @@ struct SampledDistance {
   at::Tensor ok;     // (...) bool
 };
 // Bilinear sampling of a distance map (H, W) with a validity map (H, W) at pixels (..., 2)
-// (DESIGN.md pixel convention: centres at i + 0.5). A sample is ok only where its four
+// (docs/DESIGN.md pixel convention: centres at i + 0.5). A sample is ok only where its four
 // neighbouring pixel centres are valid and agree in distance (max/min <= 1 + tolerance), so
 // values are never blended across an occlusion edge. Positions within half a pixel of the
 // border clamp to the border pixels. Positions outside [0, W] x [0, H] are not ok.

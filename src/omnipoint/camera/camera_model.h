@@ -1,7 +1,7 @@
 #pragma once
 // The interface every camera model implements (after COLMAP's sensor/models.h).
 //
-// Conventions (DESIGN.md; they hold for every model):
+// Conventions (docs/DESIGN.md; they hold for every model):
 // - Camera frame: x right, y down, z forward.
 // - Pixels: (x, y) = (column, row) in pixel units; the top-left image corner is (0, 0) and
 //   the centre of pixel (col i, row j) is (i + 0.5, j + 0.5). OpenCV's cx, cy are ours - 0.5.

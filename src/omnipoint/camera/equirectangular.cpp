@@ -1,6 +1,6 @@
 // EQUIRECTANGULAR: a 360 x 180 degree panorama (no parameters) or a cropped one with
 // lon_min lon_max lat_min lat_max in radians. Longitude (azimuth) is measured from +z towards
-// +x, latitude (elevation) is up positive (DESIGN.md):
+// +x, latitude (elevation) is up positive (docs/DESIGN.md):
 //   ray = (cos(lat) sin(lon), -sin(lat), cos(lat) cos(lon)),
 //   x in [0, W] maps linearly to [lon_min, lon_max], y in [0, H] to [lat_max, lat_min];
 // the full panorama is lon in [-pi, pi], lat in [-pi/2, pi/2]. Every direction projects;

@@ -6,7 +6,7 @@
 //                            distance.npy is absent (pixels with ray z ~ 0 then unusable)
 //   mask.png | mask.npy      optional (H, W): valid geometry (non-zero); absent -> distance > 0
 //   meta.json                {"camera": SPEC, "metric": bool, ...} with the camera spec in
-//                            DESIGN.md's convention (COLMAP line or JSON object)
+//                            docs/DESIGN.md's convention (COLMAP line or JSON object)
 // Zero distance means "no label" (sky, outside the lens); +inf is read as sky.
 #include <ATen/core/Tensor.h>
 

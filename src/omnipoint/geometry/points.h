@@ -1,5 +1,5 @@
 #pragma once
-// Ray/distance geometry (DESIGN.md): every pixel has a unit ray r and a radial distance d,
+// Ray/distance geometry (docs/DESIGN.md): every pixel has a unit ray r and a radial distance d,
 // the point is P = d · r, planar depth is derived (z = P.z, may be <= 0 for wide-FoV
 // cameras). Camera frame: x right, y down, z forward; metres.
 //

@@ -57,7 +57,7 @@ SparseDepth add_noise(const SparseDepth& sparse, const DepthNoise& noise, at::Ge
 enum class SparseValue { Distance, PlanarDepth };
 
 // Z-buffer rasterisation of projected points: pixels (..., N, 2) (x, y in the pixel
-// convention of DESIGN.md), their distances (..., N) from the camera, the values to store
+// convention of docs/DESIGN.md), their distances (..., N) from the camera, the values to store
 // (..., N) and a validity (..., N). Each image pixel [i, i+1) x [j, j+1) keeps the value of
 // its nearest point (ties: the smallest value). Points outside the image, invalid or with
 // non-finite or non-positive distance are dropped. Returns (..., height, width). One pass

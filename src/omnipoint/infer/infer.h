@@ -1,5 +1,5 @@
 #pragma once
-// The one inference path (DESIGN.md): a network loaded from a checkpoint of either format, run
+// The one inference path (docs/DESIGN.md): a network loaded from a checkpoint of either format, run
 // on a batch of images with whatever camera and sparse depth are known. predict::Model, the
 // eval predictors, the A2P teachers and `omnipoint forward` all call it, so what eval scores
 // is what predict ships.

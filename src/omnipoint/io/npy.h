@@ -1,5 +1,5 @@
 #pragma once
-// NumPy .npy arrays: the exchange format with other tools (DESIGN.md).
+// NumPy .npy arrays: the exchange format with other tools (docs/DESIGN.md).
 // Supported dtypes: float32 (<f4), float64 (<f8), uint8 (|u1), bool (|b1), int32 (<i4),
 // int64 (<i8); C order only; format versions 1.0, 2.0 and 3.0 on read, 1.0 on write.
 // Every structural problem (bad magic, malformed header, Fortran order, unsupported or

@@ -1,5 +1,5 @@
 #pragma once
-// Safetensors weights files (DESIGN.md: weights are .safetensors, never pickle).
+// Safetensors weights files (docs/DESIGN.md: weights are .safetensors, never pickle).
 //
 // Layout: an 8-byte little-endian u64 N, an N-byte UTF-8 JSON header, then the raw tensor
 // bytes. The header maps each tensor name to {"dtype", "shape", "data_offsets": [begin, end]}

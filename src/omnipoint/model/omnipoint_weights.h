@@ -1,6 +1,6 @@
 #pragma once
 // OmniPoint weights: initialisation from a MoGe-2 or a DINOv2 checkpoint, and the tensors and
-// metadata of our own checkpoints. No files here (DESIGN.md: io sits at the edge): read and
+// metadata of our own checkpoints. No files here (docs/DESIGN.md: io sits at the edge): read and
 // write them with omnipoint/io/safetensors.h, e.g.
 //   io::write_safetensors(path, state_dict(*model), omnipoint_metadata(model->config()), at::kHalf);
 //   const io::SafetensorsFile file = io::read_safetensors(path);

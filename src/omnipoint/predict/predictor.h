@@ -8,7 +8,7 @@
 //   const omnipoint::Prediction p = model.predict(image, options);  // image (H, W, 3) RGB [0, 1]
 //   // p.points (H, W, 3) metres where p.mask, p.fitted_camera, p.timing ...
 //
-// Conventions (DESIGN.md): camera frame x right, y down, z forward, metres; P = s·d·r with r
+// Conventions (docs/DESIGN.md): camera frame x right, y down, z forward, metres; P = s·d·r with r
 // the unit ray of a pixel, d its radial distance (metric here: the scale s is applied) and
 // planar depth z = P.z (negative behind wide lenses). Outputs are float32 CPU tensors.
 //

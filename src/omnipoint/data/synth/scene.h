@@ -2,7 +2,7 @@
 // A procedural scene: analytic primitives with procedural materials, lights and a camera
 // pose, all in metres. Conventions, stated once for the whole engine:
 // - World frame: x east, y north, z up (gravity along -z); the ground/floor is z = 0.
-// - Camera frame as DESIGN.md: x right, y down, z forward. The pose maps camera to world:
+// - Camera frame as docs/DESIGN.md: x right, y down, z forward. The pose maps camera to world:
 //   X_world = rotation * X_camera + position, rotation = Rz(yaw) * C * Rx(pitch) * Rz(roll)
 //   where C maps the level camera looking north (x->east, y->down, z->north). yaw turns
 //   counter-clockwise about world z seen from above (0 looks along +y), pitch > 0 looks
