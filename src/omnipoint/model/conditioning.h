@@ -12,9 +12,9 @@
 //
 // Conventions. A condition is given per batch item, and an item's condition is present when it
 // holds any valid value: a ray map (B,3,H,W) is valid where the ray is finite and non-zero
-// (cameras give zero rays outside their domain; non-finite rays are treated as zero), a sparse depth map (B,H,W) holds radial distances along the
-// pixel's ray (docs/DESIGN.md: distance, not planar z) and is valid where finite and > 0. Absent
-// items may therefore be stacked as zeros into a mixed batch. Every fusion layer (the encoders'
+// (cameras give zero rays outside their domain; non-finite rays are treated as zero), a sparse
+// depth map (B,H,W) holds radial distances along the pixel's ray (docs/DESIGN.md: distance, not
+// planar z) and is valid where finite and > 0. Absent items may therefore be stacked as zeros into a mixed batch. Every fusion layer (the encoders'
 // last conv, the state embeddings) starts at zero, so a model initialised from MoGe-2 starts out
 // computing exactly MoGe-2's features.
 #include <ATen/core/Tensor.h>
