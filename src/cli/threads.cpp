@@ -26,6 +26,7 @@ void restart_with_passive_openmp() {
   for (std::string argument; std::getline(file, argument, '\0');) arguments.push_back(argument);
   if (arguments.empty()) return;
   std::vector<char*> argv;
+  argv.reserve(arguments.size() + 1);
   for (std::string& argument : arguments) argv.push_back(argument.data());
   argv.push_back(nullptr);
   setenv("OMP_WAIT_POLICY", "passive", /*overwrite=*/1);

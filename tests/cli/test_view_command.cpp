@@ -68,7 +68,7 @@ httplib::Client client(const ViewServer& server) {
 }
 
 httplib::Result get(const ViewServer& server, const std::string& path) {
-  return client(server).Get(path.c_str());
+  return client(server).Get(path);
 }
 
 TEST_F(ViewCommand, ServesThePageThreeJsAndTheFolderList) {

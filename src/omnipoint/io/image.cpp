@@ -140,7 +140,8 @@ void write_image_png(const std::string& path, const at::Tensor& image, int float
     AT_DISPATCH_INTEGRAL_TYPES(type, "write_image_png", [&] {
       const scalar_t* in = t.data_ptr<scalar_t>();
       fill(m.ptr<uint16_t>(), [&](int64_t i) {
-        const int64_t value = in[i];
+        // An int8 tensor holds numbers, not characters.
+        const int64_t value = in[i];  // NOLINT(bugprone-signed-char-misuse)
         if (value < 0 || value > 65535) out_of_range = true;
         return static_cast<uint16_t>(std::clamp<int64_t>(value, 0, 65535));
       });
