@@ -1,16 +1,15 @@
-// omnipoint eval: runs a model (OmniPoint or MoGe-2 checkpoint), a folder of external point
-// maps, or a reference baseline over datasets with MoGe's protocol, per camera split and
-// condition mode (omnipoint/eval/runner.h). Writes to --out:
+// omnipoint eval: binds the options of an eval::EvalJob (omnipoint/eval/eval_job.h), which runs
+// a model (OmniPoint or MoGe-2 checkpoint), a folder of external point maps, or a reference
+// baseline over datasets with MoGe's protocol, per camera split and condition mode. Writes to
+// --out:
 //   samples.jsonl   one JSON object per sample × mode (or per skipped sample)
 //   summary.json    averages per split and mode, NaN entries excluded and counted
 //   table.md        the paper-style table
 //   points/         with --save-points: each sample × mode's scored point map (and sparse input)
 // and a progress line with the ETA on stderr.
-#include <ATen/ATen.h>
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -20,97 +19,19 @@
 #include "cli/commands.h"
 #include "cli/device.h"
 #include "cli/threads.h"
-#include "omnipoint/eval/predictors.h"
-#include "omnipoint/eval/runner.h"
-#include "omnipoint/infer/infer.h"
-#include "omnipoint/io/atomic_file.h"
-#include "omnipoint/io/npy.h"
-#include "omnipoint/model/omnipoint_config.h"
+#include "omnipoint/eval/eval_job.h"
 
 namespace omnipoint::cli {
 namespace {
-namespace fs = std::filesystem;
 
-struct EvalOptions {
-  std::string model, random_model, predictions, baseline, out, label, device = "cpu";
+struct EvalCommandOptions {
+  eval::EvalJobOptions job;
+  std::string device = "cpu";
   std::string precision = "auto";
-  std::vector<std::string> data, baseline_data;
-  bool intrinsics = false, moge_relative = false, save_points = false;
   std::vector<std::string> sparse_depth;  // no value: the default count
-  int64_t num_tokens = 0;
-  uint64_t seed = 0;
-  double constant_distance = 5.0;
-  int threads = 0;  // 0: every core
+  bool moge_relative = false;             // MoGe benchmark depth is not metric
+  int threads = 0;                        // 0: every core
 };
-
-eval::Predictor model_predictor(const EvalOptions& options) {
-  const std::string name =
-      options.label.empty() ? fs::path(options.model).stem().string() : options.label;
-  const at::Device device = parse_device(options.device);
-  return eval::network_predictor(infer::load_network(options.model, device), name,
-                                 options.num_tokens, parse_precision(options.precision, device));
-}
-
-// DIR/<id>.npy, else DIR/<dataset folder name>/<id>.npy: (H, W, 3) metric points.
-eval::Predictor external_predictor(const EvalOptions& options) {
-  if (!fs::is_directory(options.predictions))
-    throw std::runtime_error("--predictions " + options.predictions + ": not a folder");
-  const fs::path root(options.predictions);
-  const std::string name = options.label.empty() ? root.filename().string() : options.label;
-  return eval::point_map_predictor(name, [root](const eval::EvalSample& item) {
-    fs::path path = root / (item.id + ".npy");
-    if (!fs::exists(path)) path = root / fs::path(item.dataset).filename() / (item.id + ".npy");
-    if (!fs::exists(path))
-      throw eval::MissingPrediction("no prediction " + (root / (item.id + ".npy")).string());
-    at::Tensor points = io::read_npy(path.string());
-    if (points.dim() != 3 || points.size(2) != 3 || !at::isFloatingType(points.scalar_type()))
-      throw std::invalid_argument(path.string() + ": expected a float (H, W, 3) point map");
-    return points;
-  });
-}
-
-// An untrained OmniPoint model of a config file, initialised from --seed: the chance-level row
-// until trained weights exist.
-eval::Predictor random_model_predictor(const EvalOptions& options) {
-  const auto config = model::OmniPointConfig::from_json_text(io::read_file(options.random_model));
-  at::manual_seed(options.seed);
-  const std::string name =
-      options.label.empty() ? fs::path(options.random_model).stem().string() + " (random weights)"
-                            : options.label;
-  const at::Device device = parse_device(options.device);
-  return eval::network_predictor(infer::Network(model::OmniPointModel(config), device), name,
-                                 options.num_tokens, parse_precision(options.precision, device));
-}
-
-eval::Predictor make_predictor(const EvalOptions& options) {
-  const int given = !options.model.empty() + !options.random_model.empty() +
-                    !options.predictions.empty() + !options.baseline.empty();
-  if (given != 1)
-    throw std::invalid_argument(
-        "give exactly one of --model, --random-model, --predictions, --baseline");
-  if (options.baseline != "median" && !options.baseline_data.empty())
-    throw std::invalid_argument("--baseline-data is for --baseline median only");
-  if (!options.model.empty()) return model_predictor(options);
-  if (!options.random_model.empty()) return random_model_predictor(options);
-  if (!options.predictions.empty()) return external_predictor(options);
-  eval::Predictor predictor;
-  if (options.baseline == "oracle") {
-    predictor = eval::oracle_predictor();
-  } else if (options.baseline == "constant") {
-    predictor = eval::constant_distance_predictor(options.constant_distance);
-  } else if (options.baseline == "median") {
-    if (options.baseline_data.empty())
-      throw std::invalid_argument(
-          "--baseline median needs --baseline-data: the training samples of the cameras");
-    predictor = eval::median_map_predictor(options.baseline_data);
-  } else {
-    throw std::invalid_argument("--baseline " + options.baseline +
-                                ": expected oracle, constant or median");
-  }
-
-  if (!options.label.empty()) predictor.name = options.label;
-  return predictor;
-}
 
 // --sparse-depth takes an optional count (1,000, the paper's, when given without one).
 int64_t sparse_depth_points(const std::vector<std::string>& values) {
@@ -127,83 +48,64 @@ int64_t sparse_depth_points(const std::vector<std::string>& values) {
   return count;
 }
 
-// OUT/points/<dataset folder>/<id>/<mode>/: the point map scored and the sparse distances given.
-void save_points(const fs::path& out, const eval::EvalSample& item, const eval::Mode& mode,
-                 const eval::Conditions& conditions, const eval::GeometryPrediction& prediction) {
-  fs::path dataset = fs::path(item.dataset).lexically_normal();
-  if (dataset.filename().empty()) dataset = dataset.parent_path();
-  const fs::path folder = out / "points" / dataset.filename() / item.id / mode.name();
-  fs::create_directories(folder);
-  io::write_npy((folder / "points.npy").string(), eval::scored_points(prediction));
-  if (conditions.sparse_depth.defined())
-    io::write_npy((folder / "sparse_distance.npy").string(),
-                  conditions.sparse_depth.to(at::kFloat).contiguous());
-}
-
-void print_progress(int64_t done, int64_t total, double seconds) {
-  const double eta = done > 0 ? seconds / done * (total - done) : 0.0;
-  std::fprintf(stderr, "\reval: %lld/%lld samples (%.0f%%), %.1f s elapsed, ETA %.0f s   ",
-               static_cast<long long>(done), static_cast<long long>(total), 100.0 * done / total,
-               seconds, eta);
-  if (done == total) std::fputc('\n', stderr);
-  std::fflush(stderr);
-}
+// A progress line with the ETA on stderr.
+class EvalProgress : public eval::EvalJobObserver {
+ public:
+  void progress(int64_t done, int64_t total, double seconds) override {
+    const double eta = done > 0 ? seconds / done * (total - done) : 0.0;
+    std::fprintf(stderr, "\reval: %lld/%lld samples (%.0f%%), %.1f s elapsed, ETA %.0f s   ",
+                 static_cast<long long>(done), static_cast<long long>(total), 100.0 * done / total,
+                 seconds, eta);
+    if (done == total) std::fputc('\n', stderr);
+    std::fflush(stderr);
+  }
+};
 
 // Runs the benchmark of the bound options; `sparse_depth_given`: --sparse-depth was on the
 // command line (with or without a count).
-void run_eval(const EvalOptions& options, bool sparse_depth_given) {
+void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
   use_threads(options.threads);
   if (options.device != "cpu" && options.device != "cuda")
     throw std::invalid_argument("--device " + options.device + ": expected cpu or cuda");
-  if (options.num_tokens < 0)
-    throw std::invalid_argument("--num-tokens " + std::to_string(options.num_tokens) +
-                                ": expected >= 0");
-  eval::RunOptions run;
-  run.sparse_depth_points = sparse_depth_points(options.sparse_depth);
-  run.modes = eval::evaluation_modes(options.intrinsics, sparse_depth_given);
-  run.seed = options.seed;
-  run.moge_metric = !options.moge_relative;
-  run.progress = print_progress;
-  if (options.save_points)
-    run.scored = [out = fs::path(options.out)](const eval::EvalSample& item, const eval::Mode& mode,
-                                               const eval::Conditions& conditions,
-                                               const eval::GeometryPrediction& prediction) {
-      save_points(out, item, mode, conditions, prediction);
-    };
-  const eval::Predictor predictor = make_predictor(options);
-  const eval::RunResult result = eval::run_benchmark(predictor, options.data, run);
-  const std::string table = eval::write_run_files(options.out, result);
-  for (const auto& [reason, count] : result.summary.skipped)
+  eval::EvalJobOptions& job = options.job;
+  job.device = parse_device(options.device);
+  job.precision = parse_precision(options.precision, job.device);
+  job.sparse_depth = sparse_depth_given;
+  job.sparse_depth_points = sparse_depth_points(options.sparse_depth);
+  job.moge_metric = !options.moge_relative;
+  EvalProgress progress;
+  const eval::EvalJobResult result = eval::EvalJob(job, &progress).Run();
+  for (const auto& [reason, count] : result.run.summary.skipped)
     std::cerr << "eval: skipped " << count << " sample(s): " << reason
               << " (details in samples.jsonl)\n";
-  for (const auto& mode : result.summary.modes_not_supported)
-    std::cerr << "eval: mode " << mode << " not run: " << predictor.name
+  for (const auto& mode : result.run.summary.modes_not_supported)
+    std::cerr << "eval: mode " << mode << " not run: " << result.predictor
               << " takes no such input\n";
-  std::cout << table;
+  std::cout << result.table;
 }
 
 // What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
 // labelled.
-void add_predictor_options(CLI::App* cmd, EvalOptions& options) {
-  cmd->add_option("--model", options.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+void add_predictor_options(CLI::App* cmd, EvalCommandOptions& options) {
+  cmd->add_option("--model", options.job.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
   cmd->add_option(
-      "--random-model", options.random_model,
+      "--random-model", options.job.random_model,
       "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
-  cmd->add_option("--predictions", options.predictions,
+  cmd->add_option("--predictions", options.job.predictions,
                   "folder of external predictions: <id>.npy (H, W, 3) metric points per sample");
-  cmd->add_option("--baseline", options.baseline,
+  cmd->add_option("--baseline", options.job.baseline,
                   "oracle (GT rays and distances) | constant (GT rays, --constant-distance) | "
                   "median (GT rays, the per-pixel median distance of --baseline-data's samples "
                   "of the same camera: picture-blind)");
-  cmd->add_option("--baseline-data", options.baseline_data,
+  cmd->add_option("--baseline-data", options.job.baseline_data,
                   "for --baseline median: training sample folders (e.g. the benchmark's main set)")
       ->expected(1, -1);
-  cmd->add_option("--constant-distance", options.constant_distance,
+  cmd->add_option("--constant-distance", options.job.constant_distance,
                   "metres, for --baseline constant")
       ->capture_default_str();
-  cmd->add_option("--label", options.label,
+  cmd->add_option("--label", options.job.label,
                   "row label in the table (default: the file or folder name)");
-  cmd->add_option("--num-tokens", options.num_tokens,
+  cmd->add_option("--num-tokens", options.job.num_tokens,
                   "ViT tokens per image (0: the image's native count)")
       ->capture_default_str();
   cmd->add_option("--device", options.device, "cpu | cuda")->capture_default_str();
@@ -211,20 +113,21 @@ void add_predictor_options(CLI::App* cmd, EvalOptions& options) {
 }
 
 // On what (datasets, modes) and what is written.
-void add_benchmark_options(CLI::App* cmd, EvalOptions& options) {
-  cmd->add_option("--data", options.data, "dataset folders (sample folders, MoGe benchmark roots)")
+void add_benchmark_options(CLI::App* cmd, EvalCommandOptions& options) {
+  cmd->add_option("--data", options.job.data,
+                  "dataset folders (sample folders, MoGe benchmark roots)")
       ->required()
       ->expected(1, -1);
-  cmd->add_flag("--intrinsics", options.intrinsics,
+  cmd->add_flag("--intrinsics", options.job.intrinsics,
                 "also evaluate with the GT camera given (+K, +K+D)");
   cmd->add_option("--sparse-depth", options.sparse_depth,
                   "also evaluate with N GT sparse distances (+D, +K+D); N defaults to 1000")
       ->expected(0, 1);
-  cmd->add_option("--out", options.out, "output folder")->required();
-  cmd->add_option("--seed", options.seed,
+  cmd->add_option("--out", options.job.output_dir, "output folder")->required();
+  cmd->add_option("--seed", options.job.seed,
                   "seed mixed into the sparse-depth sampling (and of --random-model's weights)")
       ->capture_default_str();
-  cmd->add_flag("--save-points", options.save_points,
+  cmd->add_flag("--save-points", options.job.save_points,
                 "also write OUT/points/<dataset>/<id>/<mode>/points.npy, the point map scored, "
                 "and sparse_distance.npy, the sparse radial distances given (+D)");
   cmd->add_flag("--moge-relative", options.moge_relative, "MoGe benchmark depth is not metric");
@@ -233,7 +136,7 @@ void add_benchmark_options(CLI::App* cmd, EvalOptions& options) {
 }  // namespace
 
 void add_eval_command(CLI::App& app) {
-  auto options = std::make_shared<EvalOptions>();
+  auto options = std::make_shared<EvalCommandOptions>();
   auto* cmd = app.add_subcommand(
       "eval",
       "Score a model, external point maps or a baseline on datasets (our sample folders, MoGe "
