@@ -71,6 +71,17 @@ def js(value):
     return json.dumps(value, indent=1).encode()
 
 
+# A car's rig (io/rig.h): a forward pinhole looking along the body's x axis (camera z -> body x,
+# camera x -> -body y, camera y -> -body z), a MEI fisheye looking left, a KITTI LiDAR.
+RIG_FRONT = {"name": "front", "camera": "PINHOLE 1920 1080 1000 1000 959.5 539.5",
+             "body_from_camera": [[0, 0, 1, 1.5], [-1, 0, 0, 0], [0, -1, 0, 1.2]]}
+RIG = {"frame": "body",
+       "cameras": [RIG_FRONT,
+                   {"name": "left", "camera": "MEI 1400 1400 600 600 699.5 699.5 0.9 0 0 0 0",
+                    "body_from_camera": [[1, 0, 0, 0.5], [0, 0, 1, 0.9], [0, -1, 0, 1.0], [0, 0, 0, 1]]}],
+       "lidar": {"format": "kitti", "body_from_lidar": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.7]]}}
+
+
 def lzf_literals(data):
     """LZF data of literal runs only (a control byte n < 32, then n + 1 bytes)."""
     return b"".join(bytes([len(data[i:i + 32]) - 1]) + data[i:i + 32] for i in range(0, len(data), 32))
@@ -313,6 +324,10 @@ SEEDS = {
     "rigid_transform/kitti_3x4.txt": b"7.5e-03,-9.9e-01,-6.1e-04,-4.0e-03,1.4e-02,7.2e-04,-9.9e-01,-7.6e-02,"
                                      b"9.9e-01,7.5e-03,1.4e-02,-2.7e-01\n",
     "rigid_transform/tabs.txt": b"\t1\t0\t0\t0.5\n 0 1 0 -0.25\n0 0 1 +1.0\n0 0 0 1",
+    "rig/car.json": js(RIG),
+    "rig/json_camera.json": js({"cameras": [{"name": "pano", "camera": {"model": "EQUIRECTANGULAR", "width": 64,
+                                                                       "height": 32, "params": []},
+                                             "body_from_camera": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]}]}),
     "camera/line.txt": b"PINHOLE 640 480 500 500 320 240\n",
     "camera/cameras.txt": b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
                           b"1 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n\n"
@@ -456,6 +471,26 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "rigid_transform/nan.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"nan 0 0 0\n", 1), "expected a finite 4x4"),
     "rigid_transform/overflow.txt": (IDENTITY_4X4.replace(b"1 0 0 0\n", b"1e999 0 0 0\n", 1),
                                      "\"1e999\" is not a number"),
+    "rig/not_json.json": (b'{"cameras": [', "not JSON"),
+    "rig/overflow.json": (b'{"cameras": [{"name": "a", "camera": "PINHOLE 4 4 2 2 2 2", "body_from_camera": -1e999}]}',
+                          "not JSON"),
+    "rig/no_cameras.json": (js({"cameras": []}), "cameras: expected a list of at least one camera"),
+    "rig/duplicate_name.json": (js({"cameras": [RIG_FRONT, RIG_FRONT]}), "cameras[1].name: 'front' names another"),
+    "rig/bad_name.json": (js({"cameras": [dict(RIG_FRONT, name="../front")]}), "cameras[0].name: expected letters"),
+    "rig/not_orthonormal.json": (js({"cameras": [dict(RIG_FRONT, body_from_camera=[[1, 0.01, 0, 0], [0, 1, 0, 0],
+                                                                                   [0, 0, 1, 0]])]}),
+                                 "cameras[0].body_from_camera: the rotation is not orthonormal"),
+    "rig/reflection.json": (js({"cameras": [dict(RIG_FRONT, body_from_camera=[[-1, 0, 0, 0], [0, 1, 0, 0],
+                                                                              [0, 0, 1, 0]])]}),
+                            "cameras[0].body_from_camera: the rotation is a reflection"),
+    "rig/fourth_row.json": (js({"cameras": [dict(RIG_FRONT, body_from_camera=[[1, 0, 0, 0], [0, 1, 0, 0],
+                                                                              [0, 0, 1, 0], [0, 0, 1, 1]])]}),
+                            "cameras[0].body_from_camera: the fourth row must be [0, 0, 0, 1]"),
+    "rig/bad_camera.json": (js({"cameras": [dict(RIG_FRONT, camera="PINHOLE 1920 1080 1000")]}),
+                            "cameras[0].camera: PINHOLE expects 4 parameters"),
+    "rig/lidar_format.json": (js(dict(RIG, lidar={"format": "velodyne", "body_from_lidar": RIG["lidar"]["body_from_lidar"]})),
+                              "lidar.format: "),
+    "rig/unknown_key.json": (js(dict(RIG, cameras=[dict(RIG_FRONT, pose=[])])), "cameras[0].pose: unknown key"),
     "camera/unknown_model.txt": (b"1 NOPE 640 480 1 2 3\n", "unknown camera model 'NOPE'"),
     "camera/bad_json.json": (b'{"model": "PINHOLE", "width": 64', "not valid JSON"),
     "camera/comments_only.txt": (b"# nothing here\n\n", "contains no camera"),

@@ -23,6 +23,7 @@
 #include "omnipoint/io/pcd.h"
 #include "omnipoint/io/ply.h"
 #include "omnipoint/io/point_cloud.h"
+#include "omnipoint/io/rig.h"
 #include "omnipoint/io/safetensors.h"
 #include "omnipoint/model/config_tables.h"
 #include "omnipoint/train/train_config.h"
@@ -141,6 +142,10 @@ inline Parser rigid_transform_parser() {
   return {"rigid_transform",
           [](const std::string& b, const std::string& s) { io::parse_rigid_transform(b, s); }};
 }
+// A rig file (io/rig.h); camera file paths resolve against the working folder.
+inline Parser rig_parser() {
+  return {"rig", [](const std::string& b, const std::string& s) { io::parse_rig(b, s, ""); }};
+}
 // A camera file (cameras.txt or JSON); the same bytes as a --camera spec string, as a file with
 // a camera id and as a file read with an image size.
 inline Parser camera_parser() {
@@ -235,12 +240,20 @@ inline Parser sample_meta_parser() {
 
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
-  static const std::vector<Parser> table = {
-      safetensors_parser(),        npy_parser(),       ply_parser(),
-      lidar_bin_parser(),          pcd_parser(),       colmap_parser(),
-      rigid_transform_parser(),    camera_parser(),    train_config_parser(),
-      png_text_parser(),           moge_meta_parser(), sample_meta_parser(),
-      checkpoint_metadata_parser()};
+  static const std::vector<Parser> table = {safetensors_parser(),
+                                            npy_parser(),
+                                            ply_parser(),
+                                            lidar_bin_parser(),
+                                            pcd_parser(),
+                                            colmap_parser(),
+                                            rigid_transform_parser(),
+                                            rig_parser(),
+                                            camera_parser(),
+                                            train_config_parser(),
+                                            png_text_parser(),
+                                            moge_meta_parser(),
+                                            sample_meta_parser(),
+                                            checkpoint_metadata_parser()};
   return table;
 }
 
