@@ -185,7 +185,8 @@ void run_eval(const EvalOptions& options, bool sparse_depth_given) {
 // What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
 // labelled.
 void add_predictor_options(CLI::App* cmd, EvalOptions& options) {
-  cmd->add_option("--model", options.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+  cmd->add_option("--model", options.model,
+                  "OmniPoint or MoGe-2 checkpoint (.safetensors or PyTorch .pt)");
   cmd->add_option(
       "--random-model", options.random_model,
       "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");

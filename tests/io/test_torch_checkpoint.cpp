@@ -94,13 +94,13 @@ TEST(TorchCheckpoint, StateDictWithOffsetsStridesAndSharedStorage) {
   EXPECT_EQ(root.find("scalar")->as_tensor().dim(), 0);
   EXPECT_EQ(root.find("scalar")->as_tensor().item<float>(), 23.0f);
   EXPECT_EQ(root.find("empty")->as_tensor().sizes(), (std::vector<int64_t>{0, 5}));
-  EXPECT_TRUE(at::equal(root.find("longs")->as_tensor(),
-                        longs.narrow(0, 2, 4).view({2, 2}).t()));
+  EXPECT_TRUE(at::equal(root.find("longs")->as_tensor(), longs.narrow(0, 2, 4).view({2, 2}).t()));
 
   // As weights: a bare state dict, contiguous, floats converted on request.
   const fs::path dir = omnipoint::test::fresh_process_dir("omnipoint_torch_checkpoint");
   std::ofstream((dir / "state.pth").string(), std::ios::binary) << file;
-  const omnipoint::io::WeightsFile weights = omnipoint::io::read_weights((dir / "state.pth").string());
+  const omnipoint::io::WeightsFile weights =
+      omnipoint::io::read_weights((dir / "state.pth").string());
   EXPECT_EQ(weights.metadata, (std::map<std::string, std::string>{{"format", "state_dict"}}));
   EXPECT_TRUE(weights.tensors.at("transposed").is_contiguous());
   EXPECT_TRUE(at::equal(weights.tensors.at("transposed"), floats.view({6, 4}).t()));
@@ -115,16 +115,17 @@ TEST(TorchCheckpoint, StateDictWithOffsetsStridesAndSharedStorage) {
 
 TEST(TorchCheckpoint, EveryStorageDtype) {
   const std::pair<const char*, at::ScalarType> types[] = {
-      {"FloatStorage", at::kFloat}, {"HalfStorage", at::kHalf}, {"BFloat16Storage", at::kBFloat16},
-      {"DoubleStorage", at::kDouble}, {"LongStorage", at::kLong}, {"IntStorage", at::kInt},
-      {"ShortStorage", at::kShort}, {"CharStorage", at::kChar}, {"ByteStorage", at::kByte},
-      {"BoolStorage", at::kBool}};
+      {"FloatStorage", at::kFloat},       {"HalfStorage", at::kHalf},
+      {"BFloat16Storage", at::kBFloat16}, {"DoubleStorage", at::kDouble},
+      {"LongStorage", at::kLong},         {"IntStorage", at::kInt},
+      {"ShortStorage", at::kShort},       {"CharStorage", at::kChar},
+      {"ByteStorage", at::kByte},         {"BoolStorage", at::kBool}};
   std::vector<std::pair<std::string, std::string>> items, storages;
   std::map<std::string, at::Tensor> expected;
   int key = 0;
   for (const auto& [storage, dtype] : types) {
-    const at::Tensor t = dtype == at::kBool ? at::arange(6) % 2 == 0
-                                            : (at::arange(6, at::kDouble) * 1.5).to(dtype);
+    const at::Tensor t =
+        dtype == at::kBool ? at::arange(6) % 2 == 0 : (at::arange(6, at::kDouble) * 1.5).to(dtype);
     expected[storage] = t;
     items.emplace_back(storage, pkl_tensor(std::to_string(key), storage, 6, 0, {6}, {1}));
     storages.emplace_back(std::to_string(key++), bytes_of(t));
@@ -138,9 +139,9 @@ TEST(TorchCheckpoint, EveryStorageDtype) {
 }
 
 TEST(TorchCheckpoint, BoolBytesOtherThanZeroOrOneAreTrue) {
-  const PickleValue root = parse(checkpoint_zip(
-      pkl_state_dict({{"b", pkl_tensor("0", "BoolStorage", 3, 0, {3}, {1})}}),
-      {{"0", std::string("\x00\x07\x01", 3)}}));
+  const PickleValue root =
+      parse(checkpoint_zip(pkl_state_dict({{"b", pkl_tensor("0", "BoolStorage", 3, 0, {3}, {1})}}),
+                           {{"0", std::string("\x00\x07\x01", 3)}}));
   EXPECT_TRUE(at::equal(root.find("b")->as_tensor(),
                         at::tensor(std::vector<int64_t>{0, 1, 1}).to(at::kBool)));
 }
@@ -148,10 +149,10 @@ TEST(TorchCheckpoint, BoolBytesOtherThanZeroOrOneAreTrue) {
 TEST(TorchCheckpoint, NestedValuesAndMoGeLayout) {
   // {'model_config': {'encoder': {'backbone': 'x', 'layers': [1, 2.5, None, True]}, 't': (1,)},
   //  'model': OrderedDict(w=tensor)} with a BUILD of the state dict's _metadata.
-  const std::string config = "}(" + pkl_str("encoder") + "}(" + pkl_str("backbone") +
-                             pkl_str("x") + pkl_str("layers") + "](" + pkl_int(1) + "G" +
-                             std::string("\x40\x04\x00\x00\x00\x00\x00\x00", 8) + "N\x88" +
-                             "eu" + pkl_str("t") + pkl_int(1) + "\x85" + "u";
+  const std::string config = "}(" + pkl_str("encoder") + "}(" + pkl_str("backbone") + pkl_str("x") +
+                             pkl_str("layers") + "](" + pkl_int(1) + "G" +
+                             std::string("\x40\x04\x00\x00\x00\x00\x00\x00", 8) + "N\x88" + "eu" +
+                             pkl_str("t") + pkl_int(1) + "\x85" + "u";
   const std::string model = pkl_ordered_dict() + "(" + pkl_str("w") +
                             pkl_tensor("0", "FloatStorage", 2, 0, {2}, {1}) + "u}(" +
                             pkl_str("_metadata") + "}u" + "b";
@@ -178,8 +179,13 @@ TEST(TorchCheckpoint, LayoutsThatAreNotWeights) {
   const auto weights_of = [](const std::string& pickle) {
     return omnipoint::io::checkpoint_weights(unpickle(pickle), "case.pt");
   };
-  expect_error<std::runtime_error>([&] { weights_of(kProto + "](K\x01K\x02" "e."); },
-                                   {"case.pt", "holds a list, not a dict of weights"});
+  expect_error<std::runtime_error>(
+      [&] {
+        weights_of(kProto +
+                   "](K\x01K\x02"
+                   "e.");
+      },
+      {"case.pt", "holds a list, not a dict of weights"});
   expect_error<std::runtime_error>(
       [&] { weights_of(kProto + "}(" + pkl_str("model") + "}" + "u."); },
       {"case.pt", "'model' but no 'model_config'"});
@@ -223,7 +229,10 @@ TEST(TorchCheckpoint, MalformedPicklesFailWithOneLine) {
   expect_pickle_error(kProto + "\x81.", {"unsupported pickle opcode 0x81"});
   expect_pickle_error(kProto + "\x8a\x09" + std::string(9, '\x01') + ".", {"wider than 64 bits"});
   expect_pickle_error(kProto + "}(]K\x01u.", {"a dict key of type list"});
-  expect_pickle_error(kProto + "K\x01(K\x02" "e.", {"APPEND to a int"});
+  expect_pickle_error(kProto +
+                          "K\x01(K\x02"
+                          "e.",
+                      {"APPEND to a int"});
   // A list that contains itself, and lists nested past the limit.
   expect_pickle_error(kProto + std::string("]q\0h\0a.", 7), {"nest deeper than"});
   std::string deep = kProto;
@@ -269,10 +278,9 @@ TEST(TorchCheckpoint, TensorsMustLieInsideTheirStorage) {
   expect_checkpoint_error(with(pkl_tensor("0", "FloatStorage", 7, 0, {7}, {1}), six),
                           {"storage '0' holds 24 bytes"});
   // A storage without its record.
-  expect_checkpoint_error(checkpoint_zip(pkl_state_dict({{"w", pkl_tensor("9", "FloatStorage", 1,
-                                                                           0, {1}, {1})}}),
-                                         {}),
-                          {"storage '9' has no record archive/data/9"});
+  expect_checkpoint_error(
+      checkpoint_zip(pkl_state_dict({{"w", pkl_tensor("9", "FloatStorage", 1, 0, {1}, {1})}}), {}),
+      {"storage '9' has no record archive/data/9"});
 }
 
 TEST(TorchCheckpoint, ZipProblemsFailWithOneLine) {
@@ -290,9 +298,9 @@ TEST(TorchCheckpoint, ZipProblemsFailWithOneLine) {
       omnipoint::test::stored_zip({{"m/constants.pkl", "x"}, {"m/code/m.py", "x"}}),
       {"TorchScript archive"});
   // A big-endian checkpoint.
-  expect_checkpoint_error(
-      omnipoint::test::stored_zip({{"archive/data.pkl", kProto + "N."}, {"archive/byteorder", "big"}}),
-      {"byte order 'big'"});
+  expect_checkpoint_error(omnipoint::test::stored_zip(
+                              {{"archive/data.pkl", kProto + "N."}, {"archive/byteorder", "big"}}),
+                          {"byte order 'big'"});
   // A compressed record (method 8) is named as such.
   std::string deflated = omnipoint::test::stored_zip({{"archive/data.pkl", kProto + "N."}});
   deflated[8] = 8;  // the local header's method: still stored in the central directory ...
@@ -303,23 +311,24 @@ TEST(TorchCheckpoint, ZipProblemsFailWithOneLine) {
 
 TEST(TorchCheckpoint, RefusesTheLegacyFormatSayingHowToResave) {
   // The pre-1.6 format starts with its pickled magic number.
-  const std::string legacy = kProto + "\x8a\x0a" +
-                             std::string("\x6c\xfc\x9c\x46\xf9\x20\x6a\xa8\x50\x19", 10) + ".";
+  const std::string legacy =
+      kProto + "\x8a\x0a" + std::string("\x6c\xfc\x9c\x46\xf9\x20\x6a\xa8\x50\x19", 10) + ".";
   expect_checkpoint_error(legacy, {"pre-1.6 format", "torch.save"});
   const fs::path dir = omnipoint::test::fresh_process_dir("omnipoint_torch_legacy");
   std::ofstream((dir / "old.pt").string(), std::ios::binary) << legacy;
-  expect_error<std::runtime_error>(
-      [&] { omnipoint::io::read_weights((dir / "old.pt").string()); },
-      {(dir / "old.pt").string(), "pre-1.6 format", "re-save it"});
+  expect_error<std::runtime_error>([&] { omnipoint::io::read_weights((dir / "old.pt").string()); },
+                                   {(dir / "old.pt").string(), "pre-1.6 format", "re-save it"});
   fs::remove_all(dir);
 }
 
 TEST(TorchCheckpoint, Zip64SizesAreRead) {
   // The central directory's offset in the zip64 end record (0xFFFFFFFF in the classic one).
-  const std::string pickle = pkl_state_dict({{"w", pkl_tensor("0", "FloatStorage", 2, 0, {2}, {1})}});
+  const std::string pickle =
+      pkl_state_dict({{"w", pkl_tensor("0", "FloatStorage", 2, 0, {2}, {1})}});
   std::string zip = checkpoint_zip(pickle, {{"0", bytes_of(at::tensor({3.0f, 4.0f}))}});
   const std::size_t end = zip.rfind(std::string("PK\x05\x06", 4));
-  const std::string directory_at = zip.substr(end + 16, 4), directory_size = zip.substr(end + 12, 4);
+  const std::string directory_at = zip.substr(end + 16, 4),
+                    directory_size = zip.substr(end + 12, 4);
   std::uint64_t at = 0, size = 0;
   std::memcpy(&at, directory_at.data(), 4);
   std::memcpy(&size, directory_size.data(), 4);
@@ -328,8 +337,8 @@ TEST(TorchCheckpoint, Zip64SizesAreRead) {
   zip.resize(end);
   const std::size_t zip64_end = zip.size();
   using omnipoint::test::le;
-  zip += le(0x06064b50, 4) + le(44, 8) + le(45, 2) + le(45, 2) + le(0, 4) + le(0, 4) +
-         le(3, 8) + le(3, 8) + le(size, 8) + le(at, 8);
+  zip += le(0x06064b50, 4) + le(44, 8) + le(45, 2) + le(45, 2) + le(0, 4) + le(0, 4) + le(3, 8) +
+         le(3, 8) + le(size, 8) + le(at, 8);
   zip += le(0x07064b50, 4) + le(0, 4) + le(zip64_end, 8) + le(1, 4);
   zip += classic_end;
   EXPECT_TRUE(at::equal(parse(zip).find("w")->as_tensor(), at::tensor({3.0f, 4.0f})));

@@ -46,7 +46,8 @@ class TorchCheckpointPython : public ::testing::Test {
     delete dir_;
   }
   void SetUp() override {
-    if (status_ == kSkip) GTEST_SKIP() << "/usr/bin/python3 lacks torch (apt-get install python3-torch)";
+    if (status_ == kSkip)
+      GTEST_SKIP() << "/usr/bin/python3 lacks torch (apt-get install python3-torch)";
     ASSERT_EQ(status_, 0) << omnipoint::test::slurp(*dir_ / "log");
   }
   static std::string path(const std::string& name) { return (*dir_ / name).string(); }
@@ -99,7 +100,8 @@ TEST_F(TorchCheckpointPython, StrictLoadingReportsMissingUnexpectedAndMisshapedK
 }
 
 TEST_F(TorchCheckpointPython, EveryDtypeStrideOffsetAndSharedStorage) {
-  const omnipoint::io::WeightsFile read = omnipoint::io::read_weights(path("tensors.pt"), std::nullopt);
+  const omnipoint::io::WeightsFile read =
+      omnipoint::io::read_weights(path("tensors.pt"), std::nullopt);
   const omnipoint::io::SafetensorsFile expected =
       omnipoint::io::read_safetensors(path("tensors.safetensors"), std::nullopt);
   ASSERT_EQ(read.tensors.size(), expected.tensors.size());
@@ -115,8 +117,7 @@ TEST_F(TorchCheckpointPython, EveryDtypeStrideOffsetAndSharedStorage) {
   const omnipoint::io::PickleValue root = omnipoint::io::read_torch_checkpoint(path("tensors.pt"));
   EXPECT_EQ(root.keys().front().as_string(), "torch.float32");
   const at::Tensor a = root.find("shared_a")->as_tensor(), b = root.find("shared_b")->as_tensor();
-  EXPECT_EQ(static_cast<const char*>(b.data_ptr()) - static_cast<const char*>(a.data_ptr()),
-            5 * 4);
+  EXPECT_EQ(static_cast<const char*>(b.data_ptr()) - static_cast<const char*>(a.data_ptr()), 5 * 4);
   EXPECT_FALSE(root.find("transposed")->as_tensor().is_contiguous());
   EXPECT_EQ(root.find("offset_slice")->as_tensor().storage_offset(), 11);
 }
@@ -130,7 +131,8 @@ TEST_F(TorchCheckpointPython, DinoV2HubWeightsInitialiseTheEncoder) {
       moge2, omnipoint::model::OutputKind::kRayDistance));
   const omnipoint::io::WeightsFile hub = omnipoint::io::read_weights(path("dinov2.pth"));
   EXPECT_EQ(hub.metadata.at("format"), "state_dict");
-  const omnipoint::model::InitReport report = omnipoint::model::init_from_dinov2(*model, hub.tensors);
+  const omnipoint::model::InitReport report =
+      omnipoint::model::init_from_dinov2(*model, hub.tensors);
   EXPECT_EQ(report.loaded.size(), hub.tensors.size());
   const auto loaded = omnipoint::model::state_dict(*model);
   for (const auto& [name, tensor] : hub.tensors)
@@ -142,16 +144,19 @@ TEST_F(TorchCheckpointPython, DinoV2HubWeightsInitialiseTheEncoder) {
 }
 
 TEST_F(TorchCheckpointPython, WhatPythonsPickleWouldRunIsRefused) {
-  expect_error<std::runtime_error>([&] { omnipoint::io::read_weights(path("os_system.pt")); },
-                                   {path("os_system.pt"), "refuses the pickled global 'posix.system'"});
-  expect_error<std::runtime_error>([&] { omnipoint::infer::load_network(path("eval.pt")); },
-                                   {path("eval.pt"), "refuses the pickled global '__builtin__.eval'"});
+  expect_error<std::runtime_error>(
+      [&] { omnipoint::io::read_weights(path("os_system.pt")); },
+      {path("os_system.pt"), "refuses the pickled global 'posix.system'"});
+  expect_error<std::runtime_error>(
+      [&] { omnipoint::infer::load_network(path("eval.pt")); },
+      {path("eval.pt"), "refuses the pickled global '__builtin__.eval'"});
   EXPECT_FALSE(fs::exists(path("pwned")));
 }
 
 TEST_F(TorchCheckpointPython, UnsupportedContentFailsWithOneLine) {
-  expect_error<std::runtime_error>([&] { omnipoint::io::read_weights(path("complex.pt")); },
-                                   {path("complex.pt"), "torch.ComplexFloatStorage is not supported"});
+  expect_error<std::runtime_error>(
+      [&] { omnipoint::io::read_weights(path("complex.pt")); },
+      {path("complex.pt"), "torch.ComplexFloatStorage is not supported"});
   expect_error<std::runtime_error>([&] { omnipoint::io::read_weights(path("legacy.pt")); },
                                    {path("legacy.pt"), "pre-1.6 format", "re-save"});
   expect_error<std::runtime_error>([&] { omnipoint::io::read_weights(path("list.pt")); },

@@ -16,7 +16,9 @@ inline std::string le(std::uint64_t value, int bytes) {
 }
 
 // Pickle pieces (each pushes one value).
-inline std::string pkl_str(const std::string& text) { return "X" + le(text.size(), 4) + text; }
+inline std::string pkl_str(const std::string& text) {
+  return "X" + le(text.size(), 4) + text;
+}
 inline std::string pkl_int(std::int32_t value) {
   return "J" + le(static_cast<std::uint32_t>(value), 4);
 }
@@ -67,19 +69,19 @@ inline std::string stored_zip(const std::vector<std::pair<std::string, std::stri
     out += le(0x04034b50, 4) + le(20, 2) + le(0, 2) + le(0, 2) + le(0, 4) + sizes +
            le(name.size(), 2) + le(extra.size(), 2) + name + extra + data;
     directory += le(0x02014b50, 4) + le(20, 2) + le(20, 2) + le(0, 2) + le(0, 2) + le(0, 4) +
-                 sizes + le(name.size(), 2) + le(0, 2) + le(0, 2) + le(0, 2) + le(0, 2) +
-                 le(0, 4) + le(header_at, 4) + name;
+                 sizes + le(name.size(), 2) + le(0, 2) + le(0, 2) + le(0, 2) + le(0, 2) + le(0, 4) +
+                 le(header_at, 4) + name;
   }
   const std::size_t directory_at = out.size();
   out += directory;
-  out += le(0x06054b50, 4) + le(0, 2) + le(0, 2) + le(entries.size(), 2) +
-         le(entries.size(), 2) + le(directory.size(), 4) + le(directory_at, 4) + le(0, 2);
+  out += le(0x06054b50, 4) + le(0, 2) + le(0, 2) + le(entries.size(), 2) + le(entries.size(), 2) +
+         le(directory.size(), 4) + le(directory_at, 4) + le(0, 2);
   return out;
 }
 
 // A checkpoint of the pickle and its storages (key -> bytes) under "archive/".
-inline std::string checkpoint_zip(const std::string& pickle,
-                                  const std::vector<std::pair<std::string, std::string>>& storages) {
+inline std::string checkpoint_zip(
+    const std::string& pickle, const std::vector<std::pair<std::string, std::string>>& storages) {
   std::vector<std::pair<std::string, std::string>> entries = {{"archive/data.pkl", pickle}};
   for (const auto& [key, bytes] : storages) entries.emplace_back("archive/data/" + key, bytes);
   entries.emplace_back("archive/version", "3\n");

@@ -136,7 +136,15 @@ namespace {
 // What the unpickler's stack holds: values by index into its arenas (so a list that is
 // appended to after being stored elsewhere is one list, and nothing owns anything cyclically).
 enum class ObjKind {
-  kNone, kBool, kInt, kFloat, kString, kList, kTuple, kDict, kTensor,
+  kNone,
+  kBool,
+  kInt,
+  kFloat,
+  kString,
+  kList,
+  kTuple,
+  kDict,
+  kTensor,
   kGlobal,   // an allowed callable (Global)
   kStorage,  // a persistent storage (index into storages)
 };
@@ -156,9 +164,9 @@ struct DictData {
 
 // The storage types torch.save names (torch.<Name>), by dtype.
 const std::pair<const char*, at::ScalarType> kStorageTypes[] = {
-    {"FloatStorage", at::kFloat}, {"HalfStorage", at::kHalf},   {"BFloat16Storage", at::kBFloat16},
+    {"FloatStorage", at::kFloat},   {"HalfStorage", at::kHalf}, {"BFloat16Storage", at::kBFloat16},
     {"DoubleStorage", at::kDouble}, {"LongStorage", at::kLong}, {"IntStorage", at::kInt},
-    {"ShortStorage", at::kShort}, {"CharStorage", at::kChar},   {"ByteStorage", at::kByte},
+    {"ShortStorage", at::kShort},   {"CharStorage", at::kChar}, {"ByteStorage", at::kByte},
     {"BoolStorage", at::kBool}};
 
 // Text from the file, safe to print on one line.
@@ -328,7 +336,8 @@ class Unpickler {
         }
         case 'b': {  // BUILD: an OrderedDict's attributes (a state dict's _metadata)
           const Obj state = pop();
-          if (top().kind != ObjKind::kDict || (state.kind != ObjKind::kDict && state.kind != ObjKind::kNone))
+          if (top().kind != ObjKind::kDict ||
+              (state.kind != ObjKind::kDict && state.kind != ObjKind::kNone))
             fail("BUILD is allowed only for a dict's attributes");
           break;
         }
@@ -520,8 +529,8 @@ class Unpickler {
     return obj;
   }
   std::string name_of(const Obj& obj) const {
-    static const char* names[] = {"None", "bool",   "int",    "float",  "str",    "list",
-                                  "tuple", "dict",  "tensor", "global", "storage"};
+    static const char* names[] = {"None",  "bool", "int",    "float",  "str",    "list",
+                                  "tuple", "dict", "tensor", "global", "storage"};
     return names[static_cast<int>(obj.kind)];
   }
   const std::vector<Obj>& tuple_items(const Obj& obj, const char* what) const {
@@ -529,7 +538,8 @@ class Unpickler {
     return sequences_[index(obj)];
   }
   std::int64_t integer(const Obj& obj, const char* what) const {
-    if (obj.kind != ObjKind::kInt) fail(std::string(what) + " is a " + name_of(obj) + ", not an int");
+    if (obj.kind != ObjKind::kInt)
+      fail(std::string(what) + " is a " + name_of(obj) + ", not an int");
     return obj.value;
   }
   // Backward hooks (and torch 2's tensor metadata) must be empty: nothing to run.
@@ -563,7 +573,8 @@ class Unpickler {
     const std::vector<Obj> pid = tuple_items(pid_obj, "a persistent id");
     if (pid.size() != 5 || pid[0].kind != ObjKind::kString || strings_[index(pid[0])] != "storage")
       fail("a persistent id other than ('storage', type, key, location, numel)");
-    if (pid[1].kind != ObjKind::kGlobal || static_cast<Global>(pid[1].value) != Global::kStorageType)
+    if (pid[1].kind != ObjKind::kGlobal ||
+        static_cast<Global>(pid[1].value) != Global::kStorageType)
       fail("a storage whose type is not a torch storage type");
     std::string key;
     if (pid[2].kind == ObjKind::kString)
@@ -595,19 +606,22 @@ class Unpickler {
   // metadata]): a view of the storage, every element inside it.
   Obj rebuild_tensor(const std::vector<Obj>& args) {
     if ((args.size() != 6 && args.size() != 7) || args[0].kind != ObjKind::kStorage)
-      fail("torch._utils._rebuild_tensor_v2 takes (storage, offset, size, stride, requires_grad, "
-           "hooks[, metadata])");
+      fail(
+          "torch._utils._rebuild_tensor_v2 takes (storage, offset, size, stride, requires_grad, "
+          "hooks[, metadata])");
     const at::Tensor& storage = storages_[index(args[0])];
     const std::int64_t offset = integer(args[1], "a tensor's storage offset");
     const std::vector<Obj>& size_items = tuple_items(args[2], "a tensor's size");
     const std::vector<Obj>& stride_items = tuple_items(args[3], "a tensor's stride");
-    if (size_items.size() != stride_items.size()) fail("a tensor's size and stride differ in length");
+    if (size_items.size() != stride_items.size())
+      fail("a tensor's size and stride differ in length");
     if (size_items.size() > 32) fail("a tensor of more than 32 dimensions");
     require_empty(args[5], "backward hooks");
     if (args.size() == 7) require_empty(args[6], "metadata");
 
     const std::int64_t available = storage.numel();
-    if (offset < 0 || offset > available) fail("a tensor's storage offset lies outside its storage");
+    if (offset < 0 || offset > available)
+      fail("a tensor's storage offset lies outside its storage");
     std::vector<std::int64_t> sizes, strides;
     std::int64_t last = offset, count = 1;  // the highest element index, the element count
     bool empty = false;
@@ -655,7 +669,8 @@ class Unpickler {
       case ObjKind::kList:
       case ObjKind::kTuple: {
         std::vector<PickleValue> items;
-        for (const Obj& item : sequences_[index(obj)]) items.push_back(convert(item, depth + 1, budget));
+        for (const Obj& item : sequences_[index(obj)])
+          items.push_back(convert(item, depth + 1, budget));
         return PickleValue::sequence(
             obj.kind == ObjKind::kList ? PickleValue::Kind::kList : PickleValue::Kind::kTuple,
             std::move(items));

@@ -64,7 +64,7 @@ class PickleValue {
   std::int64_t int_ = 0;
   double float_ = 0;
   std::string string_;
-  std::vector<PickleValue> items_;  // list, tuple; a dict's keys
+  std::vector<PickleValue> items_;   // list, tuple; a dict's keys
   std::vector<PickleValue> values_;  // a dict's values
   at::Tensor tensor_;
 };

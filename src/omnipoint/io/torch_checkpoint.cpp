@@ -74,8 +74,9 @@ at::Tensor storage_tensor(const char* bytes, std::size_t size, const StorageRequ
   }
   const bool aligned = reinterpret_cast<std::uintptr_t>(bytes) % element == 0;
   if (keep_alive && aligned && n > 0) {
-    return at::from_blob(const_cast<char*>(bytes), {n}, [keep_alive](void*) {},
-                         at::TensorOptions().dtype(request.dtype));
+    return at::from_blob(
+        const_cast<char*>(bytes), {n}, [keep_alive](void*) {},
+        at::TensorOptions().dtype(request.dtype));
   }
   at::Tensor copy = at::empty({n}, request.dtype);
   if (n > 0) std::memcpy(copy.data_ptr(), bytes, static_cast<std::size_t>(n) * element);
@@ -108,8 +109,8 @@ nlohmann::json to_json(const PickleValue& value, const std::string& where,
       nlohmann::json out = nlohmann::json::object();
       for (std::size_t i = 0; i < value.keys().size(); ++i) {
         if (!value.keys()[i].is(Kind::kString))
-          throw std::runtime_error(source + ": " + where + " has a " +
-                                   value.keys()[i].kind_name() + " key (JSON keys are strings)");
+          throw std::runtime_error(source + ": " + where + " has a " + value.keys()[i].kind_name() +
+                                   " key (JSON keys are strings)");
         const std::string& key = value.keys()[i].as_string();
         out[key] = to_json(value.values()[i], where + "." + key, source);
       }
@@ -148,8 +149,8 @@ bool is_stored_float(at::ScalarType type) {
 bool looks_like_legacy_torch(const char* data, std::size_t size) {
   // The legacy format begins with its magic number pickled: PROTO n, LONG1 of 10 bytes
   // 0x1950a86a20f9469cfc6c (little-endian).
-  static const unsigned char kMagic[] = {0x8a, 0x0a, 0x6c, 0xfc, 0x9c, 0x46, 0xf9,
-                                         0x20, 0x6a, 0xa8, 0x50, 0x19};
+  static const unsigned char kMagic[] = {0x8a, 0x0a, 0x6c, 0xfc, 0x9c, 0x46,
+                                         0xf9, 0x20, 0x6a, 0xa8, 0x50, 0x19};
   return size >= 2 + sizeof kMagic && static_cast<unsigned char>(data[0]) == 0x80 &&
          std::memcmp(data + 2, kMagic, sizeof kMagic) == 0;
 }
@@ -180,8 +181,8 @@ PickleValue parse_torch_checkpoint(const char* data, std::size_t size, const std
   const StorageLoader load = [&](const StorageRequest& request) {
     const std::string record = prefix + "data/" + request.key;
     if (!zip.contains(record))
-      throw std::runtime_error(source + ": storage '" + request.key + "' has no record " +
-                               record + " (truncated or damaged checkpoint)");
+      throw std::runtime_error(source + ": storage '" + request.key + "' has no record " + record +
+                               " (truncated or damaged checkpoint)");
     std::size_t length = 0;
     const char* bytes = zip.data(record, &length);
     return storage_tensor(bytes, length, request, keep_alive, source);
@@ -212,8 +213,9 @@ WeightsFile checkpoint_weights(const PickleValue& checkpoint, const std::string&
                                "layout)");
     weights.tensors = state_dict_of(*model, "'model'", source);
     weights.metadata["format"] = "moge2";
-    weights.metadata["config"] = to_json(*config, "model_config", source)
-                                     .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    weights.metadata["config"] =
+        to_json(*config, "model_config", source)
+            .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     return weights;
   }
   bool all_tensors = !checkpoint.keys().empty();
@@ -223,8 +225,8 @@ WeightsFile checkpoint_weights(const PickleValue& checkpoint, const std::string&
     std::string keys;
     for (std::size_t i = 0; i < checkpoint.keys().size() && i < 10; ++i) {
       const PickleValue& key = checkpoint.keys()[i];
-      keys += (i ? ", " : "") + (key.is(PickleValue::Kind::kString) ? key.as_string()
-                                                                    : key.kind_name());
+      keys += (i ? ", " : "") +
+              (key.is(PickleValue::Kind::kString) ? key.as_string() : key.kind_name());
     }
     throw std::runtime_error(source +
                              ": neither MoGe's {'model_config', 'model'} layout nor a state dict "
@@ -246,7 +248,8 @@ WeightsFile read_weights(const std::string& path, std::optional<at::ScalarType> 
   if (looks_like_zip(head, sizeof head) || looks_like_legacy_torch(head, sizeof head)) {
     weights = checkpoint_weights(read_torch_checkpoint(path), path);
   } else {  // safetensors, or its parser's error for whatever else the file is
-    SafetensorsFile file = read_safetensors(path, std::nullopt);
+    const auto mapped = std::make_shared<const MappedFile>(path, MappedFile::Access::kCopyOnWrite);
+    SafetensorsFile file = parse_safetensors(mapped->data(), mapped->size(), path, mapped);
     weights.tensors = std::move(file.tensors);
     weights.metadata = std::move(file.metadata);
   }

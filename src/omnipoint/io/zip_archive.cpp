@@ -25,7 +25,8 @@ class Reader {
   std::uint64_t read(std::size_t at, int bytes) const {
     require(at, static_cast<std::size_t>(bytes), "a header");
     std::uint64_t value = 0;
-    for (int i = bytes - 1; i >= 0; --i) value = value << 8 | data_[at + static_cast<std::size_t>(i)];
+    for (int i = bytes - 1; i >= 0; --i)
+      value = value << 8 | data_[at + static_cast<std::size_t>(i)];
     return value;
   }
   std::uint16_t u16(std::size_t at) const { return static_cast<std::uint16_t>(read(at, 2)); }
