@@ -87,7 +87,8 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
 // What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
 // labelled.
 void add_predictor_options(CLI::App* cmd, EvalCommandOptions& options) {
-  cmd->add_option("--model", options.job.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+  cmd->add_option("--model", options.job.model,
+                  "OmniPoint or MoGe-2 checkpoint (.safetensors or PyTorch .pt)");
   cmd->add_option(
       "--random-model", options.job.random_model,
       "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");

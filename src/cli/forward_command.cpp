@@ -76,9 +76,8 @@ void add_forward_command(CLI::App& app) {
       "Run the network on a float32 image array (B,3,H,W, RGB in [0,1]) and write its raw outputs "
       "(points, mask, metric_scale, rays, distance, normal where the model has it) as .npy files");
   command
-      ->add_option(
-          "--model", options->model_path,
-          "Weights file (.safetensors, MoGe-2 or OmniPoint, with the config in its metadata)")
+      ->add_option("--model", options->model_path,
+                   "Weights file (.safetensors or PyTorch .pt, MoGe-2 or OmniPoint)")
       ->required();
   command->add_option("--input", options->input_path, "Image array (.npy, float32, B×3×H×W)")
       ->required();

@@ -102,10 +102,10 @@ void add_input_options(CLI::App* command, PredictCommandOptions& options) {
 // The network: which model, where, at what size and precision.
 void add_network_options(CLI::App* command, PredictCommandOptions& options) {
   predict::PredictJobOptions& job = options.job;
-  command->add_option(
-      "--model", options.model_path,
-      "Model checkpoint (.safetensors, OmniPoint or MoGe-2; default: $OMNIPOINT_MODEL, else the "
-      "bundled models/omnipoint_default.safetensors)");
+  command->add_option("--model", options.model_path,
+                      "Model checkpoint (.safetensors or PyTorch .pt, OmniPoint or MoGe-2; "
+                      "default: $OMNIPOINT_MODEL, else the "
+                      "bundled models/omnipoint_default.safetensors)");
   command
       ->add_option("--max-size", job.max_size,
                    "Longest image side for the network and the outputs (the camera is rescaled; "

@@ -264,6 +264,44 @@ K = [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]
 IDENTITY_4X4 = b"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
 NEAR_FAR = ((b"near", b"0.5"), (b"far", b"80.25"))
 
+# PyTorch checkpoints (torch.save's zip) and bare pickles as torch.save writes them (data.pkl).
+def torch_checkpoint(obj, **options):
+    import torch
+    buffer = io.BytesIO()
+    torch.save(obj, buffer, **options)
+    return buffer.getvalue()
+
+
+def data_pkl(checkpoint):
+    import zipfile
+    with zipfile.ZipFile(io.BytesIO(checkpoint)) as archive:
+        return archive.read([n for n in archive.namelist() if n.endswith("/data.pkl")][0])
+
+
+def checkpoint_seeds():
+    import collections
+    import torch
+    torch.manual_seed(0)
+    state = collections.OrderedDict([("blocks.0.weight", torch.randn(2, 3)), ("bias", torch.randn(3).half()),
+                                     ("steps", torch.tensor([3, -1])), ("mask", torch.tensor([True, False]))])
+    base = torch.randn(3, 4)
+    views = {"t": base.t(), "slice": base[1:, 2:], "bf16": torch.ones(2, dtype=torch.bfloat16)}
+    moge = {"model_config": {"encoder": {"backbone": "dinov2_vits14", "intermediate_layers": [2, 5]},
+                             "remap_output": "exp", "num_tokens_range": [1200, 3600], "scale": 1.5, "x": None},
+            "model": state}
+    seeds = {"state_dict.pt": torch_checkpoint(state), "views.pt": torch_checkpoint(views),
+             "moge.pt": torch_checkpoint(moge), "moge_p4.pt": torch_checkpoint(moge, pickle_protocol=4)}
+    seeds.update({name.replace(".pt", ".pkl"): data_pkl(data) for name, data in list(seeds.items())})
+    return seeds
+
+
+def pickle_global(module, name, argument):
+    """A pickle that calls module.name(argument), as an attacker would write it."""
+    text = argument.encode()
+    return (b"\x80\x02c" + module.encode() + b"\n" + name.encode() + b"\n(X" + struct.pack("<I", len(text)) + text
+            + b"tR.")
+
+
 SEEDS = {
     "safetensors/empty.safetensors": safetensors({}),
     "safetensors/metadata_only.safetensors": safetensors({"__metadata__": {"format": "moge2", "config": "{}"}}),
@@ -566,6 +604,30 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "sample_meta/array.json": (b"[1, 2]", "meta.json has no \"camera\""),
 }
 
+def checkpoint_malformed():
+    import torch
+    good = checkpoint_seeds()["state_dict.pt"]
+    legacy = torch_checkpoint({"w": torch.ones(2)}, _use_new_zipfile_serialization=False)
+    return {
+        "checkpoint/os_system.pkl": (pickle_global("os", "system", "touch pwned"),
+                                     "refuses the pickled global 'os.system'"),
+        "checkpoint/builtins_eval.pkl": (pickle_global("builtins", "eval", "1+1"),
+                                         "refuses the pickled global 'builtins.eval'"),
+        "checkpoint/complex.pt": (torch_checkpoint({"w": torch.zeros(2, dtype=torch.complex64)}),
+                                  "torch.ComplexFloatStorage is not supported"),
+        "checkpoint/legacy.pt": (legacy, "pre-1.6 format"),
+        "checkpoint/truncated.pt": (good[:len(good) // 2], "not a readable zip archive"),
+        "checkpoint/no_stop.pkl": (data_pkl(good)[:-1], "ends without a STOP opcode"),
+        "checkpoint/list.pkl": (b"\x80\x02](K\x01K\x02e.", "holds a list, not a dict of weights"),
+        "checkpoint/deep.pkl": (b"\x80\x02" + b"]" * 80 + b"a" * 79 + b".", "nest deeper than 64"),
+        "checkpoint/past_storage.pkl": (b"\x80\x02}(X\x01\x00\x00\x00wctorch._utils\n_rebuild_tensor_v2\n((X\x07\x00\x00\x00storage"
+                                        b"ctorch\nFloatStorage\nX\x01\x00\x00\x000X\x03\x00\x00\x00cpuK\x04tQK\x02K\x03\x85K\x01\x85"
+                                        b"\x89}tRu.", "reaches past the end of its storage"),
+    }
+
+
+MALFORMED.update(checkpoint_malformed())
+
 
 def write(folder, files):
     shutil.rmtree(os.path.join(HERE, folder), ignore_errors=True)
@@ -576,6 +638,7 @@ def write(folder, files):
             f.write(content)
 
 
+SEEDS.update({"checkpoint/" + name: data for name, data in checkpoint_seeds().items()})
 write("corpus", SEEDS)
 write("malformed", {name: content for name, (content, _) in MALFORMED.items()})
 with open(os.path.join(HERE, "malformed", "expected_errors.txt"), "w") as f:

@@ -3,6 +3,7 @@
 // tests/fuzz/{corpus,malformed,regressions}/<name>/. The libFuzzer targets (fuzz_<name>.cpp)
 // and the CTest replay (tests/io/test_parser_corpus.cpp) drive them through these entries, so
 // both feed the same bytes to the same calls.
+#include <ATen/ATen.h>
 #include <nlohmann/json.hpp>
 
 #include <cstddef>
@@ -25,6 +26,8 @@
 #include "omnipoint/io/point_cloud.h"
 #include "omnipoint/io/rig.h"
 #include "omnipoint/io/safetensors.h"
+#include "omnipoint/io/torch_checkpoint.h"
+#include "omnipoint/io/zip_archive.h"
 #include "omnipoint/model/config_tables.h"
 #include "omnipoint/train/train_config.h"
 
@@ -79,6 +82,24 @@ inline Parser safetensors_parser() {
             io::parse_safetensors(b.data(), b.size(), s);
           },
           nullptr, true};
+}
+// A PyTorch checkpoint as weights (zip, restricted unpickler, tensors, layout). Bytes that are
+// not a zip go to the unpickler alone, as a data.pkl whose storages are served zero-filled
+// (up to 4096 bytes), so mutations of the pickle reach it without the zip around it.
+inline void parse_checkpoint(const std::string& b, const std::string& s) {
+  if (io::looks_like_zip(b.data(), b.size()) || io::looks_like_legacy_torch(b.data(), b.size())) {
+    io::checkpoint_weights(io::parse_torch_checkpoint(b.data(), b.size(), s), s);
+    return;
+  }
+  const io::StorageLoader zeros = [&](const io::StorageRequest& request) {
+    if (request.numel > 4096 / static_cast<std::int64_t>(c10::elementSize(request.dtype)))
+      throw std::runtime_error(s + ": storage '" + request.key + "' is too large to serve");
+    return at::zeros({request.numel}, at::TensorOptions().dtype(request.dtype));
+  };
+  io::checkpoint_weights(io::unpickle(b.data(), b.size(), zeros, s), s);
+}
+inline Parser checkpoint_parser() {
+  return {"checkpoint", parse_checkpoint, nullptr, true};
 }
 inline Parser npy_parser() {
   return {"npy",
@@ -240,20 +261,12 @@ inline Parser sample_meta_parser() {
 
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
-  static const std::vector<Parser> table = {safetensors_parser(),
-                                            npy_parser(),
-                                            ply_parser(),
-                                            lidar_bin_parser(),
-                                            pcd_parser(),
-                                            colmap_parser(),
-                                            rigid_transform_parser(),
-                                            rig_parser(),
-                                            camera_parser(),
-                                            train_config_parser(),
-                                            png_text_parser(),
-                                            moge_meta_parser(),
-                                            sample_meta_parser(),
-                                            checkpoint_metadata_parser()};
+  static const std::vector<Parser> table = {
+      safetensors_parser(), checkpoint_parser(),      npy_parser(),
+      ply_parser(),         lidar_bin_parser(),       pcd_parser(),
+      colmap_parser(),      rigid_transform_parser(), rig_parser(),
+      camera_parser(),      train_config_parser(),    png_text_parser(),
+      moge_meta_parser(),   sample_meta_parser(),     checkpoint_metadata_parser()};
   return table;
 }
 

@@ -8,6 +8,7 @@
 
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/safetensors.h"
+#include "omnipoint/io/torch_checkpoint.h"
 
 namespace fs = std::filesystem;
 using omnipoint::io::encode_safetensors;
@@ -131,6 +132,28 @@ TEST(Safetensors, WriteAndReadWithConversion) {
   const SafetensorsFile bf = read_safetensors(path, at::kDouble);
   EXPECT_TRUE(at::equal(bf.tensors.at("w"), w.to(at::kBFloat16).to(at::kDouble)));
   fs::remove_all(dir);
+}
+
+// read_weights hands out views of a copy-on-write mapping: they outlive the reader and the
+// file's name, and writing to them never reaches the file.
+TEST(Safetensors, ReadWeightsViewsOutliveTheReaderAndNeverWriteTheFile) {
+  const fs::path dir = fresh_dir("omnipoint_safetensors_views");
+  const std::string path = (dir / "w.safetensors").string();
+  const at::Tensor w = at::randn({64, 48});
+  const at::Tensor steps = at::arange(7, at::kLong);
+  write_safetensors(path, {{"w", w}, {"steps", steps}}, {{"format", "test"}});
+
+  at::Tensor view = omnipoint::io::read_weights(path).tensors.at("w");
+  ASSERT_TRUE(at::equal(view, w));
+  view.add_(1);
+  const omnipoint::io::WeightsFile again = omnipoint::io::read_weights(path);
+  EXPECT_TRUE(at::equal(again.tensors.at("w"), w));
+  EXPECT_TRUE(at::equal(again.tensors.at("steps"), steps));
+  EXPECT_EQ(again.metadata.at("format"), "test");
+
+  fs::remove_all(dir);
+  EXPECT_TRUE(at::equal(view, w + 1));
+  EXPECT_TRUE(at::equal(again.tensors.at("w"), w));
 }
 
 TEST(Safetensors, MalformedFilesAreRejected) {

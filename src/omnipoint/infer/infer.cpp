@@ -6,6 +6,7 @@
 #include <c10/core/InferenceMode.h>
 
 #include <chrono>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <utility>
 
@@ -14,7 +15,7 @@
 #include "omnipoint/geometry/alignment.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/infer/teacher.h"
-#include "omnipoint/io/safetensors.h"
+#include "omnipoint/io/torch_checkpoint.h"
 #include "omnipoint/model/moge2_infer.h"
 #include "omnipoint/model/omnipoint_weights.h"
 
@@ -100,21 +101,40 @@ Network::Network(model::MoGe2Model model, at::Device device)
   moge2_->to(device);
 }
 
+namespace {
+
+// MoGe-1's config names its encoder by a string (MoGe-2's is a dict): another network.
+bool is_moge1_config(const std::string& config_json) {
+  const nlohmann::json config = nlohmann::json::parse(config_json, nullptr, false);
+  return config.is_object() && config.contains("encoder") && config["encoder"].is_string();
+}
+
+}  // namespace
+
 Network load_network(const std::string& path, at::Device device) {
   // io reports an unreadable file with its path; what the content lacks gets the path here.
-  const io::SafetensorsFile file = io::read_safetensors(path);
+  const io::WeightsFile file = io::read_weights(path);
   const auto format = file.metadata.find("format");
   const std::string kind = format == file.metadata.end() ? "moge2" : format->second;
   try {
     if (kind == "omnipoint")
       return Network(model::load_omnipoint_model(file.tensors, file.metadata), device);
+    if (kind == "state_dict")
+      throw std::invalid_argument(
+          "a bare state dict without a model config (e.g. DINOv2's backbone weights): not a "
+          "model to run; it can initialise training (init.from \"dinov2\", init.path)");
     if (kind != "moge2")
       throw std::invalid_argument("unknown metadata format \"" + kind +
                                   "\" (expected \"omnipoint\" or \"moge2\")");
-    if (file.metadata.count("config") == 0)
+    const auto config = file.metadata.find("config");
+    if (config == file.metadata.end())
       throw std::invalid_argument(
           "expected an OmniPoint or MoGe-2 checkpoint (safetensors with a \"config\" metadata "
           "entry), found no config");
+    if (is_moge1_config(config->second))
+      throw std::invalid_argument(
+          "a MoGe-1 checkpoint: this tool runs MoGe-2 and OmniPoint networks (MoGe-1's DINOv2 "
+          "backbone can initialise training: init.from \"dinov2\", init.path)");
     return Network(model::load_moge2(file.tensors, file.metadata), device);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("model " + path + ": " + e.what());

@@ -61,9 +61,9 @@ class Network {
   model::MoGe2Model moge2_{nullptr};
 };
 
-// The one checkpoint loader: reads a .safetensors file and dispatches once on its metadata
-// "format": "omnipoint", or "moge2" (also when absent: converted MoGe-2 checkpoints carry only
-// their config). Errors name the path: std::runtime_error for an unreadable file,
+// The one checkpoint loader: reads a .safetensors file or a PyTorch checkpoint (MoGe's
+// model.pt; io/torch_checkpoint.h) and dispatches once on its metadata "format": "omnipoint",
+// or "moge2" (also when absent: converted MoGe-2 checkpoints carry only their config). Errors name the path: std::runtime_error for an unreadable file,
 // std::invalid_argument for one that is not a model we know.
 Network load_network(const std::string& path, at::Device device = at::kCPU);
 

@@ -11,7 +11,7 @@
 
 namespace omnipoint::io {
 
-MappedFile::MappedFile(const std::string& path) {
+MappedFile::MappedFile(const std::string& path, Access access) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
     throw std::runtime_error(path + ": cannot open for reading: " + std::strerror(errno));
@@ -23,7 +23,8 @@ MappedFile::MappedFile(const std::string& path) {
   }
   size_ = static_cast<std::size_t>(info.st_size);
   if (size_ > 0) {
-    address_ = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    const int protection = access == Access::kCopyOnWrite ? PROT_READ | PROT_WRITE : PROT_READ;
+    address_ = ::mmap(nullptr, size_, protection, MAP_PRIVATE, fd, 0);
     if (address_ == MAP_FAILED) {
       const int error = errno;
       address_ = nullptr;

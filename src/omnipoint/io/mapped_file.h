@@ -8,8 +8,12 @@ namespace omnipoint::io {
 
 class MappedFile {
  public:
+  enum class Access {
+    kReadOnly,     // writing to the pages faults
+    kCopyOnWrite,  // writable pages; a written page becomes private, the file never changes
+  };
   // Maps `path`; throws std::runtime_error naming the path if it cannot be opened or mapped.
-  explicit MappedFile(const std::string& path);
+  explicit MappedFile(const std::string& path, Access access = Access::kReadOnly);
   ~MappedFile();
   MappedFile(const MappedFile&) = delete;
   MappedFile& operator=(const MappedFile&) = delete;

@@ -270,7 +270,8 @@ std::string length_prefix(std::uint64_t n) {
 
 }  // namespace
 
-SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std::string& name) {
+SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std::string& name,
+                                  std::shared_ptr<const void> keep_alive) {
   if (size < 8) fail(name, "shorter than the 8-byte header length");
   std::uint64_t header_size = 0;
   for (int i = 7; i >= 0; --i)
@@ -328,9 +329,18 @@ SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std:
   check_layout(entries, payload_size, name);
 
   for (const Entry& entry : entries) {
-    at::Tensor t = at::empty(entry.shape, at::TensorOptions().dtype(entry.dtype->type));
     const std::size_t bytes = entry.end - entry.begin;
-    if (bytes > 0) std::memcpy(t.data_ptr(), payload + entry.begin, bytes);
+    const char* begin = payload + entry.begin;
+    const auto element = static_cast<std::uintptr_t>(c10::elementSize(entry.dtype->type));
+    at::Tensor t;
+    if (keep_alive && bytes > 0 && reinterpret_cast<std::uintptr_t>(begin) % element == 0) {
+      t = at::from_blob(
+          const_cast<char*>(begin), entry.shape, [keep_alive](void*) {},
+          at::TensorOptions().dtype(entry.dtype->type));
+    } else {
+      t = at::empty(entry.shape, at::TensorOptions().dtype(entry.dtype->type));
+      if (bytes > 0) std::memcpy(t.data_ptr(), begin, bytes);
+    }
     if (entry.dtype->type == at::kBool) {
       // A bool in memory must be 0 or 1; other bytes would be undefined behaviour later.
       const auto* p = reinterpret_cast<const unsigned char*>(payload + entry.begin);

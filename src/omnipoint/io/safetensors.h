@@ -14,6 +14,7 @@
 
 #include <cstddef>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -25,9 +26,12 @@ struct SafetensorsFile {
 };
 
 // Parses an in-memory safetensors image; tensors keep their stored dtype and own their
-// memory (the buffer may be freed afterwards). `name` is used in error messages.
+// memory (the buffer may be freed afterwards). `name` is used in error messages. With
+// `keep_alive` (the owner of `data`), tensors whose bytes are aligned for their dtype are views
+// of the buffer instead and keep it alive.
 SafetensorsFile parse_safetensors(const char* data, std::size_t size,
-                                  const std::string& name = "safetensors");
+                                  const std::string& name = "safetensors",
+                                  std::shared_ptr<const void> keep_alive = nullptr);
 
 // Reads a safetensors file (memory-mapped). Floating-point tensors are converted to
 // `convert_to` (a floating-point type); std::nullopt keeps every stored dtype. Integer and

@@ -135,10 +135,16 @@ InitReport init_from_moge2(OmniPointModelImpl& model, const TensorMap& moge2,
 }
 
 InitReport init_from_dinov2(OmniPointModelImpl& model, const TensorMap& dinov2) {
-  const std::string prefix = "encoder.backbone.";
+  const std::string prefix = "encoder.backbone.", moge1_prefix = "backbone.";
   TensorMap source;
-  for (const auto& [name, tensor] : dinov2)
-    source[starts_with(name, prefix) ? name : prefix + name] = tensor;
+  for (const auto& [name, tensor] : dinov2) {
+    if (starts_with(name, prefix))
+      source[name] = tensor;
+    else if (starts_with(name, moge1_prefix))  // MoGe-1's model: its backbone is a DINOv2
+      source[prefix + name.substr(moge1_prefix.size())] = tensor;
+    else
+      source[prefix + name] = tensor;
+  }
   require_all(state_dict(model), source, {prefix}, "DINOv2 checkpoint");
   return load_and_report(model, source, {}, {});
 }

@@ -43,7 +43,7 @@ InitReport init_from_moge2(OmniPointModelImpl& model,
                            const MoGe2Config& moge2_config);
 
 // From a DINOv2 backbone state dict, bare (`blocks.0.attn.qkv.weight`, as torch.hub ships it)
-// or prefixed (`encoder.backbone.…`). Strict on the backbone; everything else is kept.
+// or prefixed (`encoder.backbone.…` as in MoGe-2 and OmniPoint, `backbone.…` as in MoGe-1). Strict on the backbone; everything else is kept.
 InitReport init_from_dinov2(OmniPointModelImpl& model,
                             const std::map<std::string, at::Tensor>& dinov2);
 

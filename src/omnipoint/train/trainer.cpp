@@ -16,7 +16,7 @@
 #include <utility>
 
 #include "omnipoint/eval/metrics.h"
-#include "omnipoint/io/safetensors.h"
+#include "omnipoint/io/torch_checkpoint.h"
 #include "omnipoint/model/omnipoint_weights.h"
 #include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
@@ -61,7 +61,7 @@ model::OmniPointModel build_model(const TrainConfig& config) {
   using namespace model;
   at::manual_seed(config.seed);  // the initial weights of fresh layers follow the config's seed
   if (config.init_from == InitSource::kOmniPoint) {
-    const io::SafetensorsFile file = io::read_safetensors(config.init_path);
+    const io::WeightsFile file = io::read_weights(config.init_path);
     if (config.model.is_null()) return load_omnipoint_model(file.tensors, file.metadata);
     // Fine-tuning with other condition branches (the state-embedding and smoothing ablations
     // start from one stage-1 model) or another default token budget: what both share loads, a
@@ -82,7 +82,7 @@ model::OmniPointModel build_model(const TrainConfig& config) {
     return network;
   }
   if (config.init_from == InitSource::kMoGe2) {
-    const io::SafetensorsFile file = io::read_safetensors(config.init_path);
+    const io::WeightsFile file = io::read_weights(config.init_path);
     const auto found = file.metadata.find("config");
     if (found == file.metadata.end())
       throw std::invalid_argument("init.path \"" + config.init_path +
@@ -97,7 +97,7 @@ model::OmniPointModel build_model(const TrainConfig& config) {
   }
   OmniPointModel network(OmniPointConfig::from_json(config.model));
   if (config.init_from == InitSource::kDinoV2)
-    init_from_dinov2(*network, io::read_safetensors(config.init_path).tensors);
+    init_from_dinov2(*network, io::read_weights(config.init_path).tensors);
   return network;
 }
 
