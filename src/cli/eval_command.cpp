@@ -19,6 +19,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/download_report.h"
 #include "cli/threads.h"
 #include "omnipoint/eval/predictors.h"
 #include "omnipoint/eval/runner.h"
@@ -47,7 +48,7 @@ eval::Predictor model_predictor(const EvalOptions& options) {
   const std::string name =
       options.label.empty() ? fs::path(options.model).stem().string() : options.label;
   const at::Device device = parse_device(options.device);
-  return eval::network_predictor(infer::load_network(options.model, device), name,
+  return eval::network_predictor(infer::load_network(resolve_model(options.model), device), name,
                                  options.num_tokens, parse_precision(options.precision, device));
 }
 
@@ -185,7 +186,9 @@ void run_eval(const EvalOptions& options, bool sparse_depth_given) {
 // What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
 // labelled.
 void add_predictor_options(CLI::App* cmd, EvalOptions& options) {
-  cmd->add_option("--model", options.model, "OmniPoint or MoGe-2 checkpoint (.safetensors)");
+  cmd->add_option("--model", options.model,
+                  "OmniPoint or MoGe-2 checkpoint (.safetensors), or a published one: "
+                  "hf:OWNER/REPO[/FILE][@REVISION] or a short name (omnipoint models)");
   cmd->add_option(
       "--random-model", options.random_model,
       "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");
