@@ -19,8 +19,7 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 DownloadReport::DownloadReport() : terminal_(isatty(STDERR_FILENO) == 1) {}
 
-void DownloadReport::started(const std::string& name, std::int64_t bytes,
-                             std::int64_t resumed_at) {
+void DownloadReport::started(const std::string& name, std::int64_t bytes, std::int64_t resumed_at) {
   resumed_at_ = resumed_at;
   started_ = std::chrono::steady_clock::now();
   drawn_at_ = {};
@@ -47,7 +46,8 @@ void DownloadReport::progress(std::int64_t present, std::int64_t bytes) {
   }
   const double elapsed = seconds_since(started_);
   if (elapsed > 0.5)
-    bar << "  " << io::hub::human_bytes(static_cast<std::int64_t>((present - resumed_at_) / elapsed))
+    bar << "  "
+        << io::hub::human_bytes(static_cast<std::int64_t>((present - resumed_at_) / elapsed))
         << "/s";
   std::cerr << bar.str() << std::flush;
   drawn_ = true;

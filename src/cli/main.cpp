@@ -100,10 +100,10 @@ int main(int argc, char** argv) try {
   app.set_version_flag(
       "--version",
       "omnipoint " OMNIPOINT_VERSION
-      "\nlicence: Apache-2.0 (the code, LICENSE)"
+      "\nlicence: Apache-2.0 (the code)"
       "\nbundled model (omnipoint_default.safetensors): Apache-2.0, trained by this project from "
       "scratch on its own synthetic scenes"
-      "\nmodels fetched by name keep their own licences (docs/LICENSES.md)");
+      "\nmodels fetched by name keep their own licences (README, \"Licences\")");
   omnipoint::cli::add_camera_command(app);
   omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);

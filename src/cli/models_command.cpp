@@ -44,8 +44,8 @@ void list() {
     return;
   }
   for (const io::hub::CachedModel& model : models)
-    std::cout << model.reference.text() << "  " << io::hub::human_bytes(model.bytes)
-              << "  commit " << model.commit.substr(0, 12) << "  " << model.path.string() << "\n";
+    std::cout << model.reference.text() << "  " << io::hub::human_bytes(model.bytes) << "  commit "
+              << model.commit.substr(0, 12) << "  " << model.path.string() << "\n";
 }
 
 }  // namespace

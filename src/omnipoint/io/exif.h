@@ -22,8 +22,8 @@ namespace omnipoint::io {
 bool exif_available();
 
 struct ExifFacts {
-  bool present = false;  // the file has EXIF data
-  int orientation = 1;   // 1 (as stored) when absent or out of 1..8
+  bool present = false;                     // the file has EXIF data
+  int orientation = 1;                      // 1 (as stored) when absent or out of 1..8
   std::optional<double> focal_length_35mm;  // mm, > 0
   std::optional<double> focal_length;       // mm, > 0
   // Sensor pixels per millimetre along the stored image's x (from the resolution and its unit),

@@ -52,7 +52,8 @@ bool truthy(std::string value) {
 std::string url_encode(const std::string& text, bool keep_slash) {
   std::string encoded;
   for (unsigned char c : text) {
-    if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~' || (keep_slash && c == '/')) {
+    if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~' ||
+        (keep_slash && c == '/')) {
       encoded += static_cast<char>(c);
     } else {
       char escape[4];
@@ -79,6 +80,17 @@ std::string short_name_list() {
   return names;
 }
 
+// A path inside a repository: relative, no empty, "." or ".." component, no trailing '/', no
+// backslash.
+bool is_repository_path(const std::string& file) {
+  if (file.empty() || file.back() == '/' || file.find("//") != std::string::npos ||
+      file.find('\\') != std::string::npos)
+    return false;
+  for (const fs::path& part : fs::path(file))
+    if (part.empty() || part == "." || part == ".." || part == "/") return false;
+  return true;
+}
+
 void check_reference(const ModelReference& reference, const std::string& text) {
   const auto bad = [&](const std::string& why) {
     throw std::invalid_argument("model " + text + ": " + why);
@@ -87,12 +99,8 @@ void check_reference(const ModelReference& reference, const std::string& text) {
   if (slash == std::string::npos || !valid_name(reference.repo.substr(0, slash)) ||
       !valid_name(reference.repo.substr(slash + 1)))
     bad("expected hf:OWNER/REPO[/FILE][@REVISION] (or a short name: " + short_name_list() + ")");
-  if (!reference.file.empty()) {
-    for (const fs::path& part : fs::path(reference.file))
-      if (part.empty() || part == "." || part == ".." || part == "/")
-        bad("the file \"" + reference.file + "\" is not a path inside the repository");
-    if (reference.file.back() == '/') bad("the file \"" + reference.file + "\" ends with '/'");
-  }
+  if (!reference.file.empty() && !is_repository_path(reference.file))
+    bad("the file \"" + reference.file + "\" is not a path inside the repository");
   const std::string& revision = reference.revision;
   if (revision.empty() || revision.find("..") != std::string::npos || revision[0] == '/' ||
       !std::all_of(revision.begin(), revision.end(), [](unsigned char c) {
@@ -169,7 +177,7 @@ std::vector<std::string> snapshot_checkpoints(const fs::path& snapshot) {
   std::error_code error;
   for (fs::recursive_directory_iterator it(snapshot, error), end; !error && it != end;
        it.increment(error)) {
-    const std::string relative = fs::relative(it->path(), snapshot).generic_string();
+    const std::string relative = it->path().lexically_relative(snapshot).generic_string();
     if (it->is_symlink() && fs::is_regular_file(it->path()) && is_checkpoint_file(relative))
       files.push_back(relative);
   }
@@ -181,8 +189,8 @@ std::string several(const std::string& name, const std::vector<std::string>& fil
                     const std::string& where) {
   std::string list;
   for (const std::string& file : files) list += (list.empty() ? "" : ", ") + file;
-  return name + " " + where + " " + std::to_string(files.size()) +
-         " checkpoint files (" + list + "): name one, " + name + "/FILE";
+  return name + " " + where + " " + std::to_string(files.size()) + " checkpoint files (" + list +
+         "): name one, " + name + "/FILE";
 }
 
 // The cached copy of `reference` at its revision, if any.
@@ -293,18 +301,8 @@ std::string the_checkpoint_file(const ModelReference& reference, const Settings&
   const std::string name = reference.text();
   const HttpResponse response = http_get(url, http_options(settings));
   if (response.status != 200) fail_status(name, response, url, settings);
-  std::vector<std::string> files;
-  try {
-    const nlohmann::json info = nlohmann::json::parse(response.body);
-    for (const nlohmann::json& sibling : info.at("siblings")) {
-      const std::string file = sibling.at("rfilename").get<std::string>();
-      if (is_checkpoint_file(file)) files.push_back(file);
-    }
-  } catch (const nlohmann::json::exception&) {
-    throw std::runtime_error(name + ": the model API's answer (" + url +
-                             ") is not a model description with a \"siblings\" list");
-  }
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files =
+      checkpoint_files(response.body, name + ": the model API's answer (" + url + ")");
   if (files.size() > 1) throw std::runtime_error(several(name, files, "has"));
   if (files.empty())
     throw std::runtime_error(name + " has no checkpoint file (.safetensors, .pt, .pth) in " + url);
@@ -555,12 +553,35 @@ ModelReference parse_model_reference(const std::string& text) {
     reference.repo = body.substr(0, second);
     if (second != std::string::npos) reference.file = body.substr(second + 1);
     if (first == std::string::npos)
-      throw std::invalid_argument("model " + text + ": \"" + body +
-                                  "\" is no short name and not OWNER/REPO (short names: " +
-                                  short_name_list() + ")");
+      throw std::invalid_argument(
+          "model " + text + ": \"" + body +
+          "\" is no short name and not OWNER/REPO (short names: " + short_name_list() + ")");
   }
   check_reference(reference, text);
   return reference;
+}
+
+std::vector<std::string> checkpoint_files(const std::string& model_info,
+                                          const std::string& source) {
+  std::vector<std::string> files;
+  try {
+    const nlohmann::json info = nlohmann::json::parse(model_info);
+    for (const nlohmann::json& sibling : info.at("siblings")) {
+      const std::string file = sibling.at("rfilename").get<std::string>();
+      if (!is_checkpoint_file(file)) continue;
+      // The name becomes a path in the cache.
+      if (!is_repository_path(file))
+        throw std::runtime_error(source + " lists the file \"" + file +
+                                 "\", which is no path inside the repository");
+      files.push_back(file);
+    }
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error(source +
+                             " is not a model description with a \"siblings\" list of "
+                             "{\"rfilename\": ...}");
+  }
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 bool is_checkpoint_file(const std::string& name) {
@@ -599,9 +620,9 @@ CachedModel fetch_model(const ModelReference& reference, const Settings& setting
     throw std::runtime_error(name + ": " + why);
   };
   if (settings.offline)
-    return cached_or(
-        "HF_HUB_OFFLINE is set and the cache (" + settings.cache.string() +
-        ") holds no copy: fetch it once while online (omnipoint models pull " + name + ")");
+    return cached_or("HF_HUB_OFFLINE is set and the cache (" + settings.cache.string() +
+                     ") holds no copy: fetch it once while online (omnipoint models pull " + name +
+                     ")");
   ModelReference resolved = reference;
   FileFacts facts;
   try {
@@ -616,6 +637,10 @@ CachedModel fetch_model(const ModelReference& reference, const Settings& setting
     fail_unreachable(name, e);
   }
   const std::string commit = facts.commit.empty() ? resolved.revision : facts.commit;
+  // The commit names a cache folder: a name the hub could not mean is refused.
+  if (!facts.commit.empty() && !valid_name(facts.commit))
+    throw std::runtime_error(name + ": the hub named the commit \"" + facts.commit +
+                             "\", which is no commit name");
   const fs::path repo = repo_folder(settings.cache, resolved.repo);
   const std::string blob = blob_name(facts.etag);
   const fs::path blob_path = repo / "blobs" / blob;
@@ -668,8 +693,7 @@ std::vector<CachedModel> cached_models(const fs::path& cache) {
         model.reference.repo = name;
         model.reference.file = file;
         const auto revision = revision_of.find(model.commit);
-        model.reference.revision =
-            revision != revision_of.end() ? revision->second : model.commit;
+        model.reference.revision = revision != revision_of.end() ? revision->second : model.commit;
         model.path = snapshot / file;
         model.bytes = static_cast<std::int64_t>(fs::file_size(model.path, error));
         models.push_back(std::move(model));
@@ -697,7 +721,10 @@ std::string human_bytes(std::int64_t bytes) {
   if (unit == 0)
     std::snprintf(text, sizeof text, "%lld B", static_cast<long long>(bytes));
   else
-    std::snprintf(text, sizeof text, value < 10 ? "%.2f %s" : value < 100 ? "%.1f %s" : "%.0f %s",
+    std::snprintf(text, sizeof text,
+                  value < 10    ? "%.2f %s"
+                  : value < 100 ? "%.1f %s"
+                                : "%.0f %s",
                   value, units[unit]);
   return text;
 }

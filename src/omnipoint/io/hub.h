@@ -71,6 +71,12 @@ ModelReference parse_model_reference(const std::string& text);
 // Whether a repository file is a checkpoint: .safetensors, .pt or .pth.
 bool is_checkpoint_file(const std::string& name);
 
+// The checkpoint files a model API answer (GET /api/models/OWNER/REPO) lists in "siblings"
+// ([{"rfilename": PATH}, ...]), sorted. std::runtime_error starting with `source`: the text is
+// no such description, or a checkpoint's name is no path inside the repository (absolute,
+// "..": it would land outside the cache).
+std::vector<std::string> checkpoint_files(const std::string& model_info, const std::string& source);
+
 struct Settings {
   std::string endpoint = "https://huggingface.co";  // no trailing '/'
   std::string token;                                // "": none

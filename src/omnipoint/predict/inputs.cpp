@@ -120,7 +120,7 @@ std::optional<ExifCamera> camera_from_exif(const io::ExifFacts& facts, int64_t w
     return std::nullopt;
   }
   const double fov_deg = 2.0 * std::atan(0.5 * width / focal) * 180.0 / M_PI;
-  if (!(fov_deg >= 1.0 && fov_deg <= 175.0)) {
+  if (!(fov_deg >= 1.0 && fov_deg <= 160.0)) {
     if (rejected != nullptr)
       *rejected = "the EXIF " + description + " gives a horizontal field of view of " +
                   number(fov_deg) + " degrees: ignored";

@@ -52,7 +52,7 @@ const std::vector<std::string>& sparse_depth_extensions();
 //    f = F · pixels per mm · (stored width / PixelXDimension), so a photo resized since keeps
 //    its field of view.
 // nullopt when EXIF gives neither, or (with *rejected set to why) a horizontal field of view
-// outside [1, 175] degrees, which no photo has (a unit written wrong).
+// outside [1, 160] degrees, which no pinhole photo has (a unit written wrong).
 struct ExifCamera {
   camera::Camera camera;
   std::string description;  // "35 mm equivalent focal length 26 mm", "focal length 4.2 mm ..."
