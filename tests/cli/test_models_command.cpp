@@ -81,8 +81,8 @@ class ModelsCommand : public ::testing::Test {
 
 TEST_F(ModelsCommand, PredictFetchesTheModelByNameAndPredictsAsWithTheFile) {
   if (!io::image_io_available()) GTEST_SKIP() << "built without image I/O";
-  const test::CliRun fetched =
-      run("predict photo.png --model hf:" + kRepo + " --out by_name --outputs npy --num-tokens 300");
+  const test::CliRun fetched = run("predict photo.png --model hf:" + kRepo +
+                                   " --out by_name --outputs npy --num-tokens 300");
   ASSERT_EQ(fetched.status, 0) << fetched.err;
   EXPECT_NE(fetched.err.find("omnipoint: downloading hf:" + kRepo + "/model.safetensors (2.25 MB)"),
             std::string::npos)
@@ -90,8 +90,8 @@ TEST_F(ModelsCommand, PredictFetchesTheModelByNameAndPredictsAsWithTheFile) {
   // No progress bar or note about the bundled model in a log.
   EXPECT_EQ(fetched.err.find('\r'), std::string::npos);
   EXPECT_EQ(fetched.err.find("bundled model"), std::string::npos) << fetched.err;
-  const test::CliRun local =
-      run("predict photo.png --model '" + kFixtureModel + "' --out by_file --outputs npy --num-tokens 300");
+  const test::CliRun local = run("predict photo.png --model '" + kFixtureModel +
+                                 "' --out by_file --outputs npy --num-tokens 300");
   ASSERT_EQ(local.status, 0) << local.err;
   for (const char* map : {"points.npy", "rays.npy", "distance.npy"})
     EXPECT_EQ(test::slurp(dir_ / "by_name" / "photo" / map),
@@ -99,8 +99,8 @@ TEST_F(ModelsCommand, PredictFetchesTheModelByNameAndPredictsAsWithTheFile) {
         << map;
   // Again: from the cache (one HEAD request), no download.
   server_.clear_requests();
-  const test::CliRun again =
-      run("predict photo.png --model moge-2-vitl-normal --out again --outputs npy --num-tokens 300");
+  const test::CliRun again = run(
+      "predict photo.png --model moge-2-vitl-normal --out again --outputs npy --num-tokens 300");
   ASSERT_EQ(again.status, 0) << again.err;
   EXPECT_EQ(again.err.find("downloading"), std::string::npos) << again.err;
   EXPECT_EQ(server_.requests().size(), 2u);  // the model API and the HEAD
@@ -119,8 +119,8 @@ TEST_F(ModelsCommand, PullPrintsThePathAndListShowsTheCache) {
   const std::string commit = test::HubServer::commit_of(kRepo);
   const fs::path path = dir_ / "cache" / "hub" / "models--Ruicheng--moge-2-vitl-normal" /
                         "snapshots" / commit / "model.safetensors";
-  EXPECT_EQ(pull.out, "hf:" + kRepo + "/model.safetensors -> " + path.string() +
-                          " (2.25 MB, downloaded)\n");
+  EXPECT_EQ(pull.out,
+            "hf:" + kRepo + "/model.safetensors -> " + path.string() + " (2.25 MB, downloaded)\n");
   EXPECT_EQ(io::read_file(path.string()), io::read_file(kFixtureModel));
   const test::CliRun again = run("models pull hf:" + kRepo + "/model.safetensors");
   ASSERT_EQ(again.status, 0) << again.err;
@@ -137,8 +137,8 @@ TEST_F(ModelsCommand, ForwardTakesAShortName) {
   const test::CliRun by_name =
       run("forward --model moge-2-vitl-normal --input image.npy --out by_name --num-tokens 300");
   ASSERT_EQ(by_name.status, 0) << by_name.err;
-  const test::CliRun by_file =
-      run("forward --model '" + kFixtureModel + "' --input image.npy --out by_file --num-tokens 300");
+  const test::CliRun by_file = run("forward --model '" + kFixtureModel +
+                                   "' --input image.npy --out by_file --num-tokens 300");
   ASSERT_EQ(by_file.status, 0) << by_file.err;
   EXPECT_EQ(test::slurp(dir_ / "by_name" / "points.npy"),
             test::slurp(dir_ / "by_file" / "points.npy"));

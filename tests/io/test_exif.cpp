@@ -71,8 +71,8 @@ TEST_F(ExifTest, TheFocalLengthAndSensorDensityReadBackInBigEndianFiles) {
 
 TEST_F(ExifTest, UnknownValuesAreLeftOut) {
   test::ExifTags tags;
-  tags.orientation = 9;         // no such orientation
-  tags.focal_length_35mm = 0;   // the standard's "unknown"
+  tags.orientation = 9;                        // no such orientation
+  tags.focal_length_35mm = 0;                  // the standard's "unknown"
   tags.focal_length = std::make_pair(5u, 0u);  // no number
   tags.focal_plane_x_resolution = std::make_pair(100u, 1u);
   tags.focal_plane_resolution_unit = 1;  // no absolute unit
@@ -103,14 +103,22 @@ TEST(ExifOrientation, EachValueTurnsTheImageAsTheStandardSays) {
   // displayed(i, j) = stored(row(i, j), column(i, j)).
   const auto expected = [&](int orientation, int64_t i, int64_t j) {
     switch (orientation) {
-      case 2: return stored[i][W - 1 - j];              // row 0 top, column 0 right
-      case 3: return stored[H - 1 - i][W - 1 - j];      // row 0 bottom, column 0 right
-      case 4: return stored[H - 1 - i][j];              // row 0 bottom, column 0 left
-      case 5: return stored[j][i];                      // row 0 left, column 0 top
-      case 6: return stored[H - 1 - j][i];              // row 0 right, column 0 top
-      case 7: return stored[H - 1 - j][W - 1 - i];      // row 0 right, column 0 bottom
-      case 8: return stored[j][W - 1 - i];              // row 0 left, column 0 bottom
-      default: return stored[i][j];
+      case 2:
+        return stored[i][W - 1 - j];  // row 0 top, column 0 right
+      case 3:
+        return stored[H - 1 - i][W - 1 - j];  // row 0 bottom, column 0 right
+      case 4:
+        return stored[H - 1 - i][j];  // row 0 bottom, column 0 left
+      case 5:
+        return stored[j][i];  // row 0 left, column 0 top
+      case 6:
+        return stored[H - 1 - j][i];  // row 0 right, column 0 top
+      case 7:
+        return stored[H - 1 - j][W - 1 - i];  // row 0 right, column 0 bottom
+      case 8:
+        return stored[j][W - 1 - i];  // row 0 left, column 0 bottom
+      default:
+        return stored[i][j];
     }
   };
   for (int orientation = 0; orientation <= 9; ++orientation) {

@@ -117,15 +117,15 @@ TEST(ModelReferences, ParseEveryForm) {
 
 TEST(ModelReferences, MalformedOnesAreOneLineEach) {
   expect_error<std::invalid_argument>([] { parse_model_reference("hf:moge-3"); },
-                                            "is no short name and not OWNER/REPO");
+                                      "is no short name and not OWNER/REPO");
   expect_error<std::invalid_argument>([] { parse_model_reference("hf:a/../b"); },
-                                            "expected hf:OWNER/REPO");
+                                      "expected hf:OWNER/REPO");
   expect_error<std::invalid_argument>([] { parse_model_reference("hf:a/b/x/../y"); },
-                                            "is not a path inside the repository");
+                                      "is not a path inside the repository");
   expect_error<std::invalid_argument>([] { parse_model_reference("hf:a/b@"); },
-                                            "is not a branch, tag or commit name");
+                                      "is not a branch, tag or commit name");
   expect_error<std::invalid_argument>([] { parse_model_reference("hf:a/b@x y"); },
-                                            "is not a branch, tag or commit name");
+                                      "is not a branch, tag or commit name");
 }
 
 TEST(ModelReferences, AFileOfAShortNamesNameIsAFile) {
@@ -153,7 +153,8 @@ TEST(ModelReferences, TheModelApiListsTheCheckpointFilesInsideTheRepository) {
   const std::string info =
       R"({"id": "o/r", "siblings": [{"rfilename": "README.md"}, {"rfilename": "b/model.pt"},)"
       R"( {"rfilename": "a.safetensors"}]})";
-  EXPECT_EQ(checkpoint_files(info, "api"), (std::vector<std::string>{"a.safetensors", "b/model.pt"}));
+  EXPECT_EQ(checkpoint_files(info, "api"),
+            (std::vector<std::string>{"a.safetensors", "b/model.pt"}));
   EXPECT_TRUE(checkpoint_files(R"({"siblings": []})", "api").empty());
   // A name that would land outside the cache is refused with the name.
   for (const std::string bad : {"../../evil.pt", "/etc/model.pt", "a/../../b.pt", "a//b.pt"}) {
@@ -180,8 +181,7 @@ TEST(ModelReferences, TheModelApiListsTheCheckpointFilesInsideTheRepository) {
 
 TEST_F(HubTest, AnLfsFileComesThroughTheRedirectIntoTheCache) {
   Recorder recorder;
-  const CachedModel model =
-      fetch_model(parse_model_reference("hf:" + kRepo), settings_, &recorder);
+  const CachedModel model = fetch_model(parse_model_reference("hf:" + kRepo), settings_, &recorder);
   EXPECT_TRUE(model.downloaded);
   EXPECT_EQ(model.reference.file, "model.safetensors");  // the model API's one checkpoint
   EXPECT_EQ(model.commit, test::HubServer::commit_of(kRepo));
@@ -206,19 +206,20 @@ TEST_F(HubTest, AnLfsFileComesThroughTheRedirectIntoTheCache) {
   const CachedModel again = fetch_model(parse_model_reference("moge-2-vitl-normal"), settings_);
   EXPECT_FALSE(again.downloaded);
   EXPECT_EQ(again.path, model.path);
-  const std::vector<std::string> head_only = {
-      "GET /api/models/" + kRepo, "HEAD /" + kRepo + "/resolve/main/model.safetensors"};
+  const std::vector<std::string> head_only = {"GET /api/models/" + kRepo,
+                                              "HEAD /" + kRepo + "/resolve/main/model.safetensors"};
   EXPECT_EQ(server_.requests(), head_only);
   ASSERT_EQ(cached_models(settings_.cache).size(), 1u);
-  EXPECT_EQ(cached_models(settings_.cache)[0].reference.text(), "hf:" + kRepo + "/model.safetensors");
+  EXPECT_EQ(cached_models(settings_.cache)[0].reference.text(),
+            "hf:" + kRepo + "/model.safetensors");
 }
 
 TEST_F(HubTest, ADroppedConnectionIsResumedWithARangeRequest) {
   const std::int64_t half = static_cast<std::int64_t>(checkpoint().size() / 2);
   server_.drop_transfers_at(half);
   Recorder recorder;
-  const CachedModel model = fetch_model(
-      parse_model_reference("hf:" + kRepo + "/model.safetensors"), settings_, &recorder);
+  const CachedModel model = fetch_model(parse_model_reference("hf:" + kRepo + "/model.safetensors"),
+                                        settings_, &recorder);
   EXPECT_EQ(read_file(model.path.string()), checkpoint());
   const std::vector<std::string> requests = server_.requests();
   ASSERT_EQ(requests.size(), 5u);
@@ -240,10 +241,10 @@ TEST_F(HubTest, AnInterruptedDownloadIsResumedByTheNextFetch) {
   server_.drop_transfers_at(third);
   settings_.attempts = 1;
   const ModelReference reference = parse_model_reference("hf:" + kRepo + "/model.safetensors");
-  expect_error<std::runtime_error>(
-      [&] { fetch_model(reference, settings_); },
-      "hf:" + kRepo + "/model.safetensors: the download stopped at " + std::to_string(third) +
-          " of " + std::to_string(checkpoint().size()) + " bytes");
+  expect_error<std::runtime_error>([&] { fetch_model(reference, settings_); },
+                                   "hf:" + kRepo + "/model.safetensors: the download stopped at " +
+                                       std::to_string(third) + " of " +
+                                       std::to_string(checkpoint().size()) + " bytes");
   // The part that arrived waits for the next run; nothing else is there.
   const std::vector<std::string> partial = {"hub/models--Ruicheng--moge-2-vitl-normal/blobs/" +
                                             sha256() + ".incomplete"};
@@ -259,7 +260,8 @@ TEST_F(HubTest, AnInterruptedDownloadIsResumedByTheNextFetch) {
                                     std::to_string(third));
   const std::vector<std::string> requests = server_.requests();
   ASSERT_EQ(requests.size(), 3u);
-  EXPECT_EQ(requests[2], "CDN GET /lfs/" + sha256() + " range=bytes=" + std::to_string(third) + "-");
+  EXPECT_EQ(requests[2],
+            "CDN GET /lfs/" + sha256() + " range=bytes=" + std::to_string(third) + "-");
   EXPECT_FALSE(fs::exists(settings_.cache / partial[0]));
 }
 
@@ -279,27 +281,25 @@ TEST_F(HubTest, AGatedRepositoryNeedsItsToken) {
   server_.gate(kRepo, "secret");
   const ModelReference reference = parse_model_reference("moge-2-vitl-normal");
   expect_error<std::runtime_error>([&] { fetch_model(reference, settings_); },
-                                         "access denied (HTTP 401): a gated or private "
-                                         "repository needs a token");
+                                   "access denied (HTTP 401): a gated or private "
+                                   "repository needs a token");
   settings_.token = "wrong";
   expect_error<std::runtime_error>([&] { fetch_model(reference, settings_); },
-                                         "access denied (HTTP 403) with the token in HF_TOKEN");
+                                   "access denied (HTTP 403) with the token in HF_TOKEN");
   EXPECT_TRUE(cache_files().empty());
   settings_.token = "secret";
   server_.clear_requests();
   EXPECT_EQ(read_file(fetch_model(reference, settings_).path.string()), checkpoint());
   // The token goes to the hub, never to the CDN (another port).
   for (const std::string& request : server_.requests())
-    EXPECT_EQ(request.find(" auth") != std::string::npos, request.rfind("CDN ", 0) != 0)
-        << request;
+    EXPECT_EQ(request.find(" auth") != std::string::npos, request.rfind("CDN ", 0) != 0) << request;
 }
 
 TEST_F(HubTest, AWrongChecksumRemovesTheDownload) {
   server_.corrupt_checksum(kRepo, "model.safetensors");
   expect_error<std::runtime_error>(
       [&] { fetch_model(parse_model_reference("moge-2-vitl-normal"), settings_); },
-      "hf:" + kRepo + "/model.safetensors: checksum mismatch: the download has sha256 " +
-          sha256());
+      "hf:" + kRepo + "/model.safetensors: checksum mismatch: the download has sha256 " + sha256());
   EXPECT_TRUE(cache_files().empty());
 }
 
@@ -318,8 +318,8 @@ TEST_F(HubTest, SeveralCheckpointsMustBeNamed) {
   server_.add(kRepo, "model.pt", "other weights");
   expect_error<std::runtime_error>(
       [&] { fetch_model(parse_model_reference("moge-2-vitl-normal"), settings_); },
-      "hf:" + kRepo + " has 2 checkpoint files (model.pt, model.safetensors): name one, hf:" +
-          kRepo + "/FILE");
+      "hf:" + kRepo +
+          " has 2 checkpoint files (model.pt, model.safetensors): name one, hf:" + kRepo + "/FILE");
   EXPECT_EQ(read_file(fetch_model(parse_model_reference("moge-2-vitl-normal/model.pt"), settings_)
                           .path.string()),
             "other weights");
@@ -345,10 +345,9 @@ TEST_F(HubTest, ARevisionHasItsOwnSnapshotAndRef) {
 TEST_F(HubTest, OfflineUsesTheCacheOnlyAndMakesNoRequest) {
   settings_.offline = true;
   const ModelReference reference = parse_model_reference("moge-2-vitl-normal");
-  expect_error<std::runtime_error>(
-      [&] { fetch_model(reference, settings_); },
-      "hf:" + kRepo + ": HF_HUB_OFFLINE is set and the cache (" + settings_.cache.string() +
-          ") holds no copy");
+  expect_error<std::runtime_error>([&] { fetch_model(reference, settings_); },
+                                   "hf:" + kRepo + ": HF_HUB_OFFLINE is set and the cache (" +
+                                       settings_.cache.string() + ") holds no copy");
   EXPECT_TRUE(server_.requests().empty());
   settings_.offline = false;
   const CachedModel online = fetch_model(reference, settings_);
@@ -366,7 +365,7 @@ TEST_F(HubTest, AnUnreachableHubFallsBackToTheCachedCopy) {
   Settings unreachable = settings_;
   unreachable.endpoint = "http://127.0.0.1:9";  // discard: nothing listens
   expect_error<std::runtime_error>([&] { fetch_model(reference, unreachable); },
-                                         "hf:" + kRepo + ": cannot reach the hub (");
+                                   "hf:" + kRepo + ": cannot reach the hub (");
   EXPECT_TRUE(cache_files().empty());
   const CachedModel online = fetch_model(reference, settings_);
   Recorder recorder;

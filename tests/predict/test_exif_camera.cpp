@@ -132,9 +132,7 @@ class ExifPredict : public ::testing::Test {
     void image_written(const ImageEntry& image, const PredictedImage& predicted) override {
       lines.push_back(describe(image, predicted));
     }
-    void warning(const ImageEntry&, const std::string& text) override {
-      warnings.push_back(text);
-    }
+    void warning(const ImageEntry&, const std::string& text) override { warnings.push_back(text); }
   };
   fs::path dir_;
 };

@@ -12,14 +12,14 @@
 namespace omnipoint::test {
 
 struct ExifTags {
-  std::optional<int> orientation;                                  // 0x0112, SHORT
-  std::string make;                                                // 0x010F, ASCII; "": none
-  std::optional<int> focal_length_35mm;                            // 0xA405, SHORT
+  std::optional<int> orientation;                                       // 0x0112, SHORT
+  std::string make;                                                     // 0x010F, ASCII; "": none
+  std::optional<int> focal_length_35mm;                                 // 0xA405, SHORT
   std::optional<std::pair<std::uint32_t, std::uint32_t>> focal_length;  // 0x920A, RATIONAL
   std::optional<std::pair<std::uint32_t, std::uint32_t>> focal_plane_x_resolution;  // 0xA20E
-  std::optional<int> focal_plane_resolution_unit;  // 0xA210, SHORT
-  std::optional<std::uint32_t> pixel_x_dimension;  // 0xA002, LONG
-  bool big_endian = false;                         // "MM" rather than "II"
+  std::optional<int> focal_plane_resolution_unit;                                   // 0xA210, SHORT
+  std::optional<std::uint32_t> pixel_x_dimension;                                   // 0xA002, LONG
+  bool big_endian = false;  // "MM" rather than "II"
 };
 
 namespace exif_detail {
@@ -72,12 +72,14 @@ inline std::string exif_app1(const ExifTags& tags) {
   };
   std::vector<Entry> exif;
   if (tags.focal_length) exif.push_back({0x920A, 5, 1, rational(*tags.focal_length)});
-  if (tags.pixel_x_dimension) exif.push_back({0xA002, 4, 1, number(*tags.pixel_x_dimension, 4, be)});
+  if (tags.pixel_x_dimension)
+    exif.push_back({0xA002, 4, 1, number(*tags.pixel_x_dimension, 4, be)});
   if (tags.focal_plane_x_resolution)
     exif.push_back({0xA20E, 5, 1, rational(*tags.focal_plane_x_resolution)});
   if (tags.focal_plane_resolution_unit)
     exif.push_back({0xA210, 3, 1, number(*tags.focal_plane_resolution_unit, 2, be)});
-  if (tags.focal_length_35mm) exif.push_back({0xA405, 3, 1, number(*tags.focal_length_35mm, 2, be)});
+  if (tags.focal_length_35mm)
+    exif.push_back({0xA405, 3, 1, number(*tags.focal_length_35mm, 2, be)});
   std::vector<Entry> ifd0;
   if (!tags.make.empty())
     ifd0.push_back({0x010F, 2, static_cast<std::uint32_t>(tags.make.size() + 1),

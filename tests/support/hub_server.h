@@ -185,8 +185,8 @@ class HubServer {
       Sha256 claimed;
       claimed.update(content);
       res.status = 302;
-      res.set_header("Location", "http://127.0.0.1:" + std::to_string(cdn_port_) + "/lfs/" +
-                                     sha.hex_digest());
+      res.set_header("Location",
+                     "http://127.0.0.1:" + std::to_string(cdn_port_) + "/lfs/" + sha.hex_digest());
       res.set_header("X-Linked-Etag", "\"" + claimed.hex_digest() + "\"");
       res.set_header("X-Linked-Size", std::to_string(file->content->size()));
       res.set_header("ETag", "\"" + digest("pointer " + name) + "\"");
@@ -238,7 +238,7 @@ class HubServer {
   std::thread hub_thread_, cdn_thread_;
   int hub_port_ = 0, cdn_port_ = 0;
   mutable std::mutex mutex_;
-  std::map<std::string, std::map<std::string, Revision>> repos_;  // repo -> revision -> files
+  std::map<std::string, std::map<std::string, Revision>> repos_;     // repo -> revision -> files
   std::map<std::string, std::shared_ptr<const std::string>> blobs_;  // by SHA-256
   std::map<std::string, std::string> gates_;
   std::set<std::string> corrupt_;
