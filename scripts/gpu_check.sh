@@ -7,7 +7,8 @@
 # the tool and those tests' executables: the shortest whole check, for a short lease.
 # 1. Builds build/ (incrementally, going on past errors so one log lists them all) against
 #    PyTorch's LibTorch, without OpenCV (no image files, so the training renders its scenes
-#    on the machine's cores as it goes) and without the viewer (no npm there).
+#    on the machine's cores as it goes), without the viewer (no npm there) and without the
+#    hub client (no libcurl headers there).
 # 2. Runs the CUDA tests, then (all, tests) the suites that need no image files.
 # 3. Trains examples/train/gpu/omnipoint_gpu.json, the bundled model's recipe with a wider
 #    network and 32 images a step, for about TRAIN_SECONDS (default 240): a 20-step probe
@@ -62,7 +63,8 @@ build() {
   # shellcheck disable=SC2086  # GPU_CHECK_CMAKE_ARGS is a list of arguments
   TORCH_CUDA_ARCH_LIST=${TORCH_CUDA_ARCH_LIST:-9.0} cmake -S . -B build -G Ninja \
     -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$torch_prefix;$PWD/.gpu/root/usr" \
-    -DOMNIPOINT_WITH_OPENCV=OFF -DOMNIPOINT_WITH_VIEWER=OFF -DOMNIPOINT_BUILD_TESTS=ON \
+    -DOMNIPOINT_WITH_OPENCV=OFF -DOMNIPOINT_WITH_VIEWER=OFF -DOMNIPOINT_WITH_HUB=OFF \
+    -DOMNIPOINT_BUILD_TESTS=ON \
     -DOMNIPOINT_BUILD_BENCH=OFF \
     ${GPU_CHECK_CMAKE_ARGS:-} || return
   local targets=()

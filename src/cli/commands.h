@@ -13,6 +13,7 @@ void add_eval_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
 void add_init_model_command(CLI::App& app);
 void add_metrics_command(CLI::App& app);
+void add_models_command(CLI::App& app);
 void add_predict_command(CLI::App& app);
 void add_reproject_command(CLI::App& app);
 void add_synth_command(CLI::App& app);

@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -18,6 +19,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/download_report.h"
 #include "cli/threads.h"
 #include "omnipoint/eval/eval_job.h"
 
@@ -70,6 +72,11 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
   eval::EvalJobOptions& job = options.job;
   job.device = parse_device(options.device);
   job.precision = parse_precision(options.precision, job.device);
+  if (!job.model.empty()) {  // a hub reference is fetched; the row keeps the name given
+    const std::string path = resolve_model(job.model);
+    if (job.label.empty()) job.label = std::filesystem::path(job.model).stem().string();
+    job.model = path;
+  }
   job.sparse_depth = sparse_depth_given;
   job.sparse_depth_points = sparse_depth_points(options.sparse_depth);
   job.moge_metric = !options.moge_relative;
@@ -88,7 +95,8 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
 // labelled.
 void add_predictor_options(CLI::App* cmd, EvalCommandOptions& options) {
   cmd->add_option("--model", options.job.model,
-                  "OmniPoint or MoGe-2 checkpoint (.safetensors or PyTorch .pt)");
+                  "OmniPoint or MoGe-2 checkpoint (.safetensors or PyTorch .pt), or a published "
+                  "one: hf:OWNER/REPO[/FILE][@REVISION] or a short name (omnipoint models)");
   cmd->add_option(
       "--random-model", options.job.random_model,
       "an OmniPoint config (JSON) with random weights seeded by --seed: the untrained baseline");

@@ -10,6 +10,7 @@
 
 #include "cli/commands.h"
 #include "cli/device.h"
+#include "cli/download_report.h"
 #include "cli/threads.h"
 #include "omnipoint/infer/infer.h"
 #include "omnipoint/io/npy.h"
@@ -51,8 +52,8 @@ at::Tensor read_image_array(const std::string& path) {
 void run_forward(const ForwardOptions& options) {
   const model::Precision precision = parse_precision(options.precision, at::kCPU);
   const at::Tensor image = read_image_array(options.input_path);
-  const infer::RawOutput output =
-      infer::forward(infer::load_network(options.model_path), image, options.num_tokens, precision);
+  const infer::RawOutput output = infer::forward(
+      infer::load_network(resolve_model(options.model_path)), image, options.num_tokens, precision);
 
   std::filesystem::create_directories(options.out_dir);
   const auto write = [&](const std::string& name, const at::Tensor& tensor) {
@@ -77,7 +78,9 @@ void add_forward_command(CLI::App& app) {
       "(points, mask, metric_scale, rays, distance, normal where the model has it) as .npy files");
   command
       ->add_option("--model", options->model_path,
-                   "Weights file (.safetensors or PyTorch .pt, MoGe-2 or OmniPoint)")
+                   "Weights file (.safetensors or PyTorch .pt, MoGe-2 or OmniPoint), or a "
+                   "published checkpoint: hf:OWNER/REPO[/FILE][@REVISION] or a short name "
+                   "(omnipoint models)")
       ->required();
   command->add_option("--input", options->input_path, "Image array (.npy, float32, B×3×H×W)")
       ->required();

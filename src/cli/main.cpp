@@ -97,12 +97,19 @@ int main(int argc, char** argv) try {
   omnipoint::io::keep_freed_memory_in_heap();
   CLI::App app{"OmniPoint: a metric 3D point cloud from one image of any camera"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "omnipoint 0.1.0");
+  app.set_version_flag(
+      "--version",
+      "omnipoint " OMNIPOINT_VERSION
+      "\nlicence: Apache-2.0 (the code)"
+      "\nbundled model (omnipoint_default.safetensors): Apache-2.0, trained by this project from "
+      "scratch on its own synthetic scenes"
+      "\nmodels fetched by name keep their own licences (README, \"Licences\")");
   omnipoint::cli::add_camera_command(app);
   omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_init_model_command(app);
   omnipoint::cli::add_metrics_command(app);
+  omnipoint::cli::add_models_command(app);
   omnipoint::cli::add_predict_command(app);
   omnipoint::cli::add_reproject_command(app);
   omnipoint::cli::add_synth_command(app);

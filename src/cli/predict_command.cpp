@@ -4,6 +4,7 @@
 // both, and a non-zero status when an image failed. --view then serves the outputs.
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -32,6 +33,7 @@ struct PredictCommandOptions {
   std::string precision = "auto";
   bool view = false;
   bool cached_writes = false;
+  bool no_exif = false;
   int threads = 0;  // 0: every core
 };
 
@@ -44,7 +46,10 @@ void run_predict(PredictCommandOptions& options) {
   job.device = parse_device(options.device);
   job.precision = parse_precision(options.precision, job.device);
   job.fit_model = options.fit_model == "none" ? "" : options.fit_model;
+  job.use_exif = !options.no_exif;
   job.output_files = predict::parse_output_list(options.outputs);
+  if (bundled_model_chosen(options.model_path))
+    std::fprintf(stderr, "omnipoint: note: %s\n", kBundledModelNote);
   job.model_path = model_path_or_bundled(options.model_path);
   PredictReports reports;
   const predict::PredictJobSummary summary = predict::PredictJob(job, &reports).Run();
@@ -66,7 +71,11 @@ void add_input_options(CLI::App* command, PredictCommandOptions& options) {
       "--camera", job.camera,
       "Camera of the images: a COLMAP-style spec \"MODEL W H PARAMS...\" (a leading camera id is "
       "allowed), a JSON object, a cameras.txt (FILE#ID picks one), a camera.json written by "
-      "predict, or a UniK3D camera JSON (default: the model predicts it)");
+      "predict, or a UniK3D camera JSON (default: a JPEG's EXIF focal length as a centred "
+      "pinhole, else the model predicts it)");
+  command->add_flag("--no-exif", options.no_exif,
+                    "Ignore the photos' EXIF data: the pixels as stored (no Orientation applied) "
+                    "and no camera from its focal length");
   command
       ->add_option("--fov", job.fov_deg,
                    "Horizontal field of view in degrees of a pinhole camera centred in each "
@@ -102,10 +111,12 @@ void add_input_options(CLI::App* command, PredictCommandOptions& options) {
 // The network: which model, where, at what size and precision.
 void add_network_options(CLI::App* command, PredictCommandOptions& options) {
   predict::PredictJobOptions& job = options.job;
-  command->add_option("--model", options.model_path,
-                      "Model checkpoint (.safetensors or PyTorch .pt, OmniPoint or MoGe-2; "
-                      "default: $OMNIPOINT_MODEL, else the "
-                      "bundled models/omnipoint_default.safetensors)");
+  command->add_option(
+      "--model", options.model_path,
+      "Model checkpoint: a file (.safetensors or PyTorch .pt, OmniPoint or MoGe-2), or a "
+      "published one fetched into the cache, hf:OWNER/REPO[/FILE][@REVISION] or a short name "
+      "such as moge-2-vitl-normal (omnipoint models) (default: $OMNIPOINT_MODEL, else the "
+      "bundled models/omnipoint_default.safetensors)");
   command
       ->add_option("--max-size", job.max_size,
                    "Longest image side for the network and the outputs (the camera is rescaled; "

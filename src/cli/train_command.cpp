@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/download_report.h"
 #include "cli/progress.h"
 #include "cli/threads.h"
 #include "omnipoint/train/launcher.h"
@@ -49,6 +50,9 @@ void run_train(const TrainOptions& options) {
   train::TrainingSessionOptions session;
   session.config = train::TrainConfig::load(options.config_path, options.overrides);
   if (options.curves_only) return train::redraw_training_curves(session.config.output_dir);
+  // init.path may name a published checkpoint (hf:..., a short name): the trainer reads the
+  // cached file. Ranks of one job fetch it under the cache's lock, one after the other.
+  session.config.init_path = resolve_model(session.config.init_path);
   session.resume = options.resume;
   session.stop_after = options.stop_after;
   session.Check();

@@ -28,7 +28,7 @@ void expect_refusal(const std::string& arguments, const std::string& line) {
 }
 
 const std::string kCommands =
-    "camera, eval, forward, init-model, metrics, predict, reproject, synth, train, view";
+    "camera, eval, forward, init-model, metrics, models, predict, reproject, synth, train, view";
 
 TEST(CommandNames, AMistypedCommandNamesItselfAndTheCommandMeant) {
   expect_refusal("predcit x.jpg", "unknown command 'predcit' (did you mean 'predict'?)");
@@ -63,6 +63,13 @@ TEST(CommandNames, CommandsAndTheirArgumentsStillParse) {
   const CliRun version = run("--version");
   EXPECT_EQ(version.status, 0) << version.err;
   EXPECT_NE(version.out.find("omnipoint"), std::string::npos);
+  // The licences of the code and of the bundled model, and where the fetched models' are.
+  EXPECT_NE(version.out.find("\nlicence: Apache-2.0 (the code)\n"), std::string::npos)
+      << version.out;
+  EXPECT_NE(version.out.find("\nbundled model (omnipoint_default.safetensors): Apache-2.0"),
+            std::string::npos)
+      << version.out;
+  EXPECT_NE(version.out.find("README, \"Licences\""), std::string::npos) << version.out;
   // Arguments after a command are its own, whatever they look like.
   for (const std::string help : {"predict --help", "camera rays --help", "train --help"}) {
     const CliRun result = run(help);

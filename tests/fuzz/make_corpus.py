@@ -405,6 +405,11 @@ SEEDS = {
     "sample_meta/object.json": js({"camera": {"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []},
                                    "scene": {"kind": "indoor"}}),
     "sample_meta/fisheye.json": js({"camera": "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0", "metric": False}),
+    "hub_model_info/moge2.json": js({"id": "Ruicheng/moge-2-vitl-normal", "sha": "b135031bae30b5ac2ae141a0e68717795ce38340",
+                                     "siblings": [{"rfilename": ".gitattributes"}, {"rfilename": "README.md"},
+                                                  {"rfilename": "model.pt"}]}),
+    "hub_model_info/several.json": js({"id": "o/r", "siblings": [{"rfilename": "a/model.safetensors"},
+                                                                 {"rfilename": "b.pth"}, {"rfilename": "c.json"}]}),
 }
 
 
@@ -602,6 +607,13 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "sample_meta/metric_number.json": (js({"camera": "PINHOLE 16 12 14 14 8 6", "metric": 1}),
                                        "\"metric\" must be true or false, got 1"),
     "sample_meta/array.json": (b"[1, 2]", "meta.json has no \"camera\""),
+    "hub_model_info/not_json.json": (b"<html>", "is not a model description"),
+    "hub_model_info/no_siblings.json": (js({"id": "o/r"}), "is not a model description"),
+    "hub_model_info/number_name.json": (js({"siblings": [{"rfilename": 7}]}), "is not a model description"),
+    "hub_model_info/parent.json": (js({"siblings": [{"rfilename": "../../evil.pt"}]}),
+                                   "lists the file \"../../evil.pt\", which is no path inside the repository"),
+    "hub_model_info/absolute.json": (js({"siblings": [{"rfilename": "/etc/model.pt"}]}),
+                                     "which is no path inside the repository"),
 }
 
 def checkpoint_malformed():

@@ -20,6 +20,7 @@
 #include "omnipoint/data/png_text.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/io/colmap.h"
+#include "omnipoint/io/hub.h"
 #include "omnipoint/io/npy.h"
 #include "omnipoint/io/pcd.h"
 #include "omnipoint/io/ply.h"
@@ -258,15 +259,22 @@ inline Parser sample_meta_parser() {
   return {"sample_meta",
           [](const std::string& b, const std::string& s) { data::parse_sample_meta(b, s); }};
 }
+// The hub's model API answer (GET /api/models/OWNER/REPO): its checkpoint file names, which
+// become cache paths.
+inline Parser hub_model_info_parser() {
+  return {"hub_model_info",
+          [](const std::string& b, const std::string& s) { io::hub::checkpoint_files(b, s); }};
+}
 
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
   static const std::vector<Parser> table = {
-      safetensors_parser(), checkpoint_parser(),      npy_parser(),
-      ply_parser(),         lidar_bin_parser(),       pcd_parser(),
-      colmap_parser(),      rigid_transform_parser(), rig_parser(),
-      camera_parser(),      train_config_parser(),    png_text_parser(),
-      moge_meta_parser(),   sample_meta_parser(),     checkpoint_metadata_parser()};
+      safetensors_parser(),   checkpoint_parser(),      npy_parser(),
+      ply_parser(),           lidar_bin_parser(),       pcd_parser(),
+      colmap_parser(),        rigid_transform_parser(), rig_parser(),
+      camera_parser(),        train_config_parser(),    png_text_parser(),
+      moge_meta_parser(),     sample_meta_parser(),     checkpoint_metadata_parser(),
+      hub_model_info_parser()};
   return table;
 }
 

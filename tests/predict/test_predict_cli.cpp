@@ -95,6 +95,27 @@ TEST_F(PredictCli, BundledModelIsTheDefault) {
   EXPECT_TRUE(fs::is_regular_file(dir_ / "bundled" / "good" / "camera.json"));
 }
 
+// Once, before the images: the bundled model is a demonstration, and the command for a real one.
+TEST_F(PredictCli, TheBundledModelSaysOnceWhatItLearnedFrom) {
+  io::write_image_png((dir_ / "second.png").string(), at::rand({30, 40, 3}));
+  const CliRun bundled =
+      run_cli(dir_, "predict good.png second.png --out bundled", "env -u OMNIPOINT_MODEL ");
+  ASSERT_EQ(bundled.status, 0) << bundled.err;
+  const std::string note = "omnipoint: note: the bundled model learned from synthetic scenes only";
+  ASSERT_EQ(bundled.err.rfind(note, 0), 0u) << bundled.err;
+  EXPECT_EQ(bundled.err.find(note, 1), std::string::npos) << bundled.err;
+  EXPECT_NE(bundled.err.find("omnipoint models pull moge-2-vitl-normal"), std::string::npos)
+      << bundled.err;
+  // A model chosen (--model, or $OMNIPOINT_MODEL) gets no such note.
+  const CliRun chosen = run_cli(dir_, "predict good.png" + model_);
+  ASSERT_EQ(chosen.status, 0) << chosen.err;
+  EXPECT_EQ(chosen.err.find("bundled model"), std::string::npos) << chosen.err;
+  const CliRun from_environment = run_cli(dir_, "predict good.png --num-tokens 12 --out env",
+                                          "OMNIPOINT_MODEL='" + tiny_model_path() + "' ");
+  ASSERT_EQ(from_environment.status, 0) << from_environment.err;
+  EXPECT_EQ(from_environment.err.find("bundled model"), std::string::npos) << from_environment.err;
+}
+
 TEST_F(PredictCli, CorruptImageIsSkipped) {
   std::ofstream((dir_ / "corrupt.png").string()) << "not a png";
   const CliRun run = run_cli(dir_, "predict corrupt.png good.png" + model_);

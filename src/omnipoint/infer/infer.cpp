@@ -204,6 +204,7 @@ Result run_network(const Network& network, const Inputs& inputs) {
   // A given camera is used as it is: its rays carry the predicted distances (pixels outside
   // its domain are invalid); the predicted rays stand in only for an unknown camera.
   result.rays = camera_rays.defined() ? camera_rays : net.rays;
+  if (camera_rays.defined() && !result.multi_view) result.predicted_rays = net.rays;
   result.distance = net.distance;
   result.mask = net.mask & at::isfinite(net.distance) & (net.distance > 0);
   if (camera_valid.defined()) result.mask = result.mask & camera_valid;

@@ -96,7 +96,10 @@ PointMap point_map(const at::Tensor& rays, const at::Tensor& distance, const at:
 
 // On the network's device, in the layout of the rays (B, H, W, ...).
 struct Result {
-  at::Tensor rays;          // (B, H, W, 3) unit rays (the given camera's, else predicted)
+  at::Tensor rays;  // (B, H, W, 3) unit rays (the given camera's, else predicted)
+  // With a given camera, the rays the network predicted of its own (undefined in MoGe-2's
+  // multi-view mode, which predicts none for the whole image; and without a camera: `rays`).
+  at::Tensor predicted_rays;
   at::Tensor distance;      // (B, H, W) scale-invariant: metric_scale · distance is metric
   at::Tensor mask;          // (B, H, W) bool: the network's mask (and the camera's domain)
   at::Tensor metric_scale;  // (B) after the alignment; 1 without a scale head

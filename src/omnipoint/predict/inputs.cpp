@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 #include "omnipoint/geometry/sparse_sampling.h"
@@ -92,6 +94,45 @@ SparseDepthInput read_sparse_depth(const std::string& path, const SparseDepthFil
   input.depth_map = depth.to(at::kFloat);
   input.depth_is_planar = true;
   return input;
+}
+
+std::optional<ExifCamera> camera_from_exif(const io::ExifFacts& facts, int64_t width,
+                                           int64_t height, std::string* rejected) {
+  const auto number = [](double value) {
+    std::ostringstream text;
+    text << std::setprecision(4) << value;
+    return text.str();
+  };
+  double focal = 0;
+  std::string description;
+  if (facts.focal_length_35mm) {
+    const double film_diagonal_mm = std::hypot(36.0, 24.0);
+    focal = *facts.focal_length_35mm * std::hypot(width, height) / film_diagonal_mm;
+    description = "35 mm equivalent focal length " + number(*facts.focal_length_35mm) + " mm";
+  } else if (facts.focal_length && facts.focal_plane_pixels_per_mm) {
+    const int64_t stored_width = io::orientation_swaps_axes(facts.orientation) ? height : width;
+    const double reference_width =
+        facts.pixel_x_dimension ? static_cast<double>(*facts.pixel_x_dimension) : stored_width;
+    focal = *facts.focal_length * *facts.focal_plane_pixels_per_mm * stored_width / reference_width;
+    description = "focal length " + number(*facts.focal_length) + " mm on a sensor of " +
+                  number(*facts.focal_plane_pixels_per_mm) + " pixels/mm";
+  } else {
+    return std::nullopt;
+  }
+  const double fov_deg = 2.0 * std::atan(0.5 * width / focal) * 180.0 / M_PI;
+  if (!(fov_deg >= 1.0 && fov_deg <= 160.0)) {
+    if (rejected != nullptr)
+      *rejected = "the EXIF " + description + " gives a horizontal field of view of " +
+                  number(fov_deg) + " degrees: ignored";
+    return std::nullopt;
+  }
+  const std::string camera =
+      facts.make.empty() && facts.model.empty()
+          ? ""
+          : " (" + facts.make + (facts.make.empty() ? "" : " ") + facts.model + ")";
+  return ExifCamera{
+      camera::Camera("PINHOLE", width, height, {focal, focal, 0.5 * width, 0.5 * height}),
+      description + camera};
 }
 
 camera::ImageSize size_within(int64_t width, int64_t height, int64_t max_size) {

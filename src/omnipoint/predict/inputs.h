@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "omnipoint/io/exif.h"
 #include "omnipoint/predict/predictor.h"
 
 namespace omnipoint::predict {
@@ -39,6 +40,25 @@ bool is_point_cloud_file(const std::string& path);
 
 // The extensions a sparse-depth folder is searched for, in order of preference.
 const std::vector<std::string>& sparse_depth_extensions();
+
+// A photo's camera from its EXIF focal length: a pinhole of square pixels centred in the image
+// as displayed (width x height, after the EXIF orientation), of focal length f pixels:
+//  - from FocalLengthIn35mmFilm F35 when there is one. The 35 mm equivalent focal length is
+//    the one giving the same diagonal angle of view on a 36 x 24 mm frame (CIPA's guideline
+//    DCG-001, the usual reading), so f = F35 · √(W² + H²) / √(36² + 24²), whatever the aspect
+//    ratio and the orientation;
+//  - else from FocalLength F with the sensor's pixel density (FocalPlaneXResolution and its
+//    unit), which counts pixels of an image PixelXDimension wide (default: as stored):
+//    f = F · pixels per mm · (stored width / PixelXDimension), so a photo resized since keeps
+//    its field of view.
+// nullopt when EXIF gives neither, or (with *rejected set to why) a horizontal field of view
+// outside [1, 160] degrees, which no pinhole photo has (a unit written wrong).
+struct ExifCamera {
+  camera::Camera camera;
+  std::string description;  // "35 mm equivalent focal length 26 mm", "focal length 4.2 mm ..."
+};
+std::optional<ExifCamera> camera_from_exif(const io::ExifFacts& facts, int64_t width,
+                                           int64_t height, std::string* rejected = nullptr);
 
 // --max-size: the size of a width x height image whose long side is at most max_size (0: no
 // limit), the aspect ratio kept (sides rounded, at least 1).

@@ -44,10 +44,14 @@ nlohmann::json summary(const Prediction& p) {
   if (p.fitted_camera) {
     const camera::FieldOfView fov = camera::field_of_view(*p.fitted_camera);
     json["camera"] = nlohmann::json::parse(p.fitted_camera->to_json());
-    json["camera_source"] = p.fit_residual ? "fitted" : "given";
+    json["camera_source"] = camera_source_name(camera_source_of(p));
     if (p.fit_residual)
       json["fit_residual_deg"] = {{"median", p.fit_residual->median_deg},
                                   {"max", p.fit_residual->max_deg}};
+    if (p.camera_agreement)
+      json["camera_vs_network_rays_deg"] = {{"mean", p.camera_agreement->mean_deg},
+                                            {"median", p.camera_agreement->median_deg},
+                                            {"max", p.camera_agreement->max_deg}};
     json["camera_spec"] = p.fitted_camera->to_spec();
     json["cameras_txt_line"] = camera::cameras_txt_line(*p.fitted_camera);
     json["fov_deg"] = {{"horizontal", fov.horizontal_deg},

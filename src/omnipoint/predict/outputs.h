@@ -26,8 +26,10 @@
 //                   colours, cells across depth edges skipped; only when asked for
 //   camera.json     always, the run's record: the camera (JSON "camera", "camera_spec" MODEL W H
 //                   PARAMS, "cameras_txt_line" 1 MODEL W H PARAMS, fields of view;
-//                   "camera_source" given|fitted and, when fitted, "fit_residual_deg"
-//                   median/max), metric scale, alignment, edge filter, the files written and the
+//                   "camera_source" given|exif|fitted and, when fitted, "fit_residual_deg"
+//                   median/max; with a given or EXIF camera and a network that predicts rays,
+//                   "camera_vs_network_rays_deg" mean/median/max: the angle between the two),
+//                   metric scale, alignment, edge filter, the files written and the
 //                   PNGs' scales, notes, warnings and per-stage and per-file timing (writing
 //                   included); `--camera camera.json` reads it back
 //   cameras.txt     the camera as a COLMAP cameras.txt (camera id 1), when there is one

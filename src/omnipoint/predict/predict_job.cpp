@@ -13,8 +13,10 @@
 #include <utility>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/camera/camera_info.h"
 #include "omnipoint/geometry/points.h"
 #include "omnipoint/io/camera_file.h"
+#include "omnipoint/io/exif.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
 #include "omnipoint/io/point_cloud.h"
@@ -40,18 +42,21 @@ std::string number(double value) {
   return text.str();
 }
 
-// An image decoded and brought to the network's size.
+// An image decoded (turned as its EXIF orientation says) and brought to the network's size.
 struct DecodedImage {
   at::Tensor image;                 // (H, W, 3) at `size`
-  camera::ImageSize original_size;  // as decoded
+  camera::ImageSize original_size;  // as decoded and turned
   camera::ImageSize size;
+  io::ExifFacts exif;  // none unless read
   double decode_ms = 0;
 };
 
-DecodedImage decode(const ImageEntry& entry, int64_t max_size) {
+DecodedImage decode(const ImageEntry& entry, int64_t max_size, bool use_exif) {
   const auto start = std::chrono::steady_clock::now();
-  const at::Tensor original = io::read_image(entry.path.string());
   DecodedImage decoded;
+  if (use_exif) decoded.exif = io::read_exif(entry.path.string());
+  const at::Tensor original =
+      io::apply_exif_orientation(io::read_image(entry.path.string()), decoded.exif.orientation);
   decoded.original_size = {original.size(1), original.size(0)};
   decoded.size = size_within(original.size(1), original.size(0), max_size);
   decoded.image = resize_image(original, decoded.size.width, decoded.size.height);
@@ -89,6 +94,9 @@ class JobRun {
     observer_.warning(entry, text);
   }
   void write_fused_cloud();
+  bool use_exif() const { return options_.use_exif && options_.colmap.empty(); }
+  void use_exif_facts(const ImageEntry& entry, const DecodedImage& decoded, PredictOptions& item,
+                      std::vector<std::string>& notes);
 
   const PredictJobOptions& options_;
   PredictJobObserver& observer_;
@@ -132,7 +140,7 @@ void JobRun::read_inputs() {
   // kept for its turn (an unreadable one is reported and skipped then).
   if (!options_.camera.empty()) {
     try {
-      first_ = decode(list_.images.front(), options_.max_size);
+      first_ = decode(list_.images.front(), options_.max_size, use_exif());
     } catch (const std::exception&) {
       first_error_ = std::current_exception();
     }
@@ -144,7 +152,7 @@ void JobRun::read_inputs() {
 DecodedImage JobRun::decode_image(size_t index) {
   if (index == 0 && first_error_) std::rethrow_exception(first_error_);
   if (index == 0 && first_) return *std::exchange(first_, std::nullopt);
-  return decode(list_.images[index], options_.max_size);
+  return decode(list_.images[index], options_.max_size, use_exif());
 }
 
 SparseDepthInput JobRun::sparse_depth_file_of(const ImageEntry& entry) {
@@ -169,6 +177,35 @@ SparseDepthInput JobRun::sparse_depth_file_of(const ImageEntry& entry) {
     warn(entry, "the point cloud " + file->string() +
                     " is taken as in the camera frame (no --lidar-to-camera given)");
   return sparse;
+}
+
+// The EXIF orientation (noted) and camera (the image's when none is given) of an image.
+void JobRun::use_exif_facts(const ImageEntry& entry, const DecodedImage& decoded,
+                            PredictOptions& item, std::vector<std::string>& notes) {
+  static const char* const turns[] = {"",
+                                      "",
+                                      "mirrored left to right",
+                                      "turned 180 degrees",
+                                      "mirrored top to bottom",
+                                      "transposed",
+                                      "turned 90 degrees clockwise",
+                                      "transposed across the anti-diagonal",
+                                      "turned 90 degrees anticlockwise"};
+  const io::ExifFacts& exif = decoded.exif;
+  if (exif.orientation != 1)
+    notes.push_back("EXIF orientation " + std::to_string(exif.orientation) + " applied (" +
+                    turns[exif.orientation] + "): the image as photo viewers show it");
+  if (item.camera) return;
+  std::string rejected;
+  const camera::ImageSize size = decoded.original_size;
+  if (const auto camera = camera_from_exif(exif, size.width, size.height, &rejected)) {
+    item.camera = camera->camera;
+    item.camera_source = CameraSource::kExif;
+    notes.push_back("camera from EXIF: " + camera->description +
+                    ", a pinhole centred in the image (--no-exif: predicted instead)");
+  } else if (!rejected.empty()) {
+    warn(entry, rejected);
+  }
 }
 
 void JobRun::predict_image(const ImageEntry& entry, const DecodedImage& decoded) {
@@ -196,6 +233,8 @@ void JobRun::predict_image(const ImageEntry& entry, const DecodedImage& decoded)
   } else if (!options_.sparse_depth.empty()) {
     item.sparse_depth = sparse_depth_file_of(entry);
   }
+  std::vector<std::string> exif_notes;
+  if (use_exif()) use_exif_facts(entry, decoded, item, exif_notes);
   item.sparse_depth = resize_sparse_depth(item.sparse_depth, original.width, original.height,
                                           decoded.size.width, decoded.size.height);
 
@@ -205,6 +244,8 @@ void JobRun::predict_image(const ImageEntry& entry, const DecodedImage& decoded)
   predicted.size = decoded.size;
   predicted.decode_ms = decoded.decode_ms;
   predicted.prediction = model_->predict(decoded.image, item);
+  std::vector<std::string>& notes = predicted.prediction.notes;
+  notes.insert(notes.begin(), exif_notes.begin(), exif_notes.end());
   OutputOptions outputs;
   outputs.files = options_.output_files;
   if (view != nullptr) outputs.camera_from_world = view->camera_from_world;
@@ -293,6 +334,13 @@ std::string describe(const ImageEntry& image, const PredictedImage& predicted) {
     text +=
         " at " + std::to_string(predicted.size.width) + "x" + std::to_string(predicted.size.height);
   text += ", metric scale " + fixed(p.metric_scale, 4);
+  if (p.fitted_camera)
+    text += std::string(", camera ") + camera_source_name(camera_source_of(p)) + " " +
+            p.fitted_camera->model_name() + " hfov " +
+            fixed(camera::field_of_view(*p.fitted_camera).horizontal_deg, 4) + " deg";
+  if (p.camera_agreement)
+    text += ", network rays " + fixed(p.camera_agreement->mean_deg, 3) + "/" +
+            fixed(p.camera_agreement->median_deg, 3) + " deg from it (mean/median)";
   if (p.sparse_samples > 0)
     text += ", aligned x" + fixed(p.alignment_factor, 4) + " to " +
             std::to_string(p.sparse_samples) + " sparse samples";

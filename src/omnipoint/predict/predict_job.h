@@ -43,6 +43,11 @@ struct PredictJobOptions {
   double depth_png_units_per_metre = 1000;  // depth PNG values per metre (256: KITTI)
   std::string lidar_to_camera;         // camera-from-LiDAR transform file of point clouds; "": none
   int64_t lidar_floats_per_point = 4;  // float32 values per point of .bin scans
+  // A photo's EXIF data (io/exif.h; not with colmap, whose cameras are of the pixels as
+  // stored): its Orientation is applied (the image as photo viewers show it; the camera and the
+  // sparse depth maps given are of that image), and without camera, fov_deg or colmap its focal
+  // length gives the camera (camera_from_exif). false: the pixels as stored, no EXIF camera.
+  bool use_exif = true;
   // The network.
   std::string model_path;                                   // the checkpoint (Model::load)
   at::Device device = at::kCPU;                             // where it runs
@@ -69,8 +74,10 @@ struct PredictedImage {
   Prediction prediction;
 };
 
-// "IMAGE -> FOLDER (N points at WxH, metric scale S, aligned xF to K sparse samples, decode
-// D ms, network N ms, writing W ms)", the parts that apply.
+// "IMAGE -> FOLDER (N points at WxH, metric scale S, camera SOURCE MODEL hfov H deg, network
+// rays M/D deg from it, aligned xF to K sparse samples, decode D ms, network N ms, writing
+// W ms)", the parts that apply: SOURCE given, exif or fitted; M/D the mean and median angle
+// between the camera's rays and the network's own (Prediction::camera_agreement).
 std::string describe(const ImageEntry& image, const PredictedImage& predicted);
 
 struct PredictJobSummary {

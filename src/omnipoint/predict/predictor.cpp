@@ -74,15 +74,17 @@ std::optional<camera::CameraFit> fit(const std::string& model, const at::Tensor&
 // The prediction's camera: a given one as it is (the output rays are its rays) unless
 // another model is asked for; otherwise the fit of `requested` ("" = none).
 void attach_camera(const std::string& requested, const std::optional<camera::Camera>& given,
-                   Prediction* p) {
+                   CameraSource given_source, Prediction* p) {
   if (given && (requested.empty() || requested == "auto" || requested == given->model_name())) {
     p->fitted_camera = given;
+    p->camera_source = given_source;
     return;
   }
   if (requested.empty()) return;
   if (auto fitted = fit(requested, p->rays, p->mask, &p->fit_error)) {
     p->fitted_camera = std::move(fitted->camera);
     p->fit_residual = fitted->residual;
+    p->camera_source = CameraSource::kFitted;
   }
 }
 
@@ -99,6 +101,25 @@ Prediction prediction(const infer::PointMap& map, double metric_scale) {
 }
 
 }  // namespace
+
+const char* camera_source_name(CameraSource source) {
+  switch (source) {
+    case CameraSource::kGiven:
+      return "given";
+    case CameraSource::kExif:
+      return "exif";
+    case CameraSource::kFitted:
+      return "fitted";
+    default:
+      return "none";
+  }
+}
+
+CameraSource camera_source_of(const Prediction& p) {
+  if (!p.fitted_camera) return CameraSource::kNone;
+  if (p.camera_source != CameraSource::kNone) return p.camera_source;
+  return p.fit_residual ? CameraSource::kFitted : CameraSource::kGiven;
+}
 
 Model Model::load(const std::string& path, at::Device device) {
   return Model(std::make_shared<Impl>(Impl{infer::load_network(path, device)}));
@@ -216,6 +237,9 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
                    scale = result.metric_scale.to(at::kCPU, at::kDouble),
                    factor = result.alignment_factor.to(at::kCPU, at::kDouble),
                    samples = result.sparse_samples.to(at::kCPU);
+  const at::Tensor network_rays = result.predicted_rays.defined()
+                                      ? result.predicted_rays.to(at::kCPU, at::kFloat)
+                                      : at::Tensor();
   std::vector<Prediction> predictions;
   for (int64_t b = 0; b < batch; ++b) {
     Prediction p = prediction({rays[b], distance[b], points[b], mask[b]}, scale[b].item<double>());
@@ -228,8 +252,11 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
           sparse_in_image[b].item<int64_t>(),
           sparse.lidar_points.defined() ? sparse.lidar_points.size(0) : 0, p.sparse_samples,
           p.alignment_factor, options.sparse_depth_is_metric);
+    // Before the flying-pixel filter, as the fit's residual.
+    if (network_rays.defined() && inputs.camera && p.mask.any().item<bool>())
+      p.camera_agreement = camera::angular_residual(*inputs.camera, network_rays[b], p.mask);
     start = Clock::now();
-    attach_camera(options.fit_model, inputs.camera, &p);
+    attach_camera(options.fit_model, inputs.camera, options.camera_source, &p);
     p.timing = timing;
     p.timing.camera_fit_ms += ms_since(start);
     // After the fit: flying pixels have wrong distances but their rays are as good as any.

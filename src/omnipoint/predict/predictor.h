@@ -57,11 +57,23 @@ struct SparseDepthInput {
 // is 0.04, although its help text says 0.01).
 inline constexpr double kDefaultEdgeRtol = 0.04;
 
+// Where a prediction's camera comes from (camera.json's "camera_source").
+enum class CameraSource {
+  kNone,    // no camera: none given and none fitted
+  kGiven,   // the user's (a camera spec or file, a field of view, a COLMAP reconstruction)
+  kExif,    // the photo's EXIF focal length (predict/inputs.h: camera_from_exif)
+  kFitted,  // fitted to the predicted rays (PredictOptions::fit_model)
+};
+// "none", "given", "exif", "fitted".
+const char* camera_source_name(CameraSource source);
+
 struct PredictOptions {
   // The image's camera (any model); its size must equal the image's or have its aspect ratio
   // (it is then resized). It conditions the network, and the output points lie on its rays
   // (invalid outside its domain). Without it the model predicts the rays.
   std::optional<camera::Camera> camera;
+  // Where `camera` comes from: kGiven or kExif (recorded in Prediction::camera_source).
+  CameraSource camera_source = CameraSource::kGiven;
   SparseDepthInput sparse_depth;
   int64_t num_tokens = 0;  // ViT token budget; 0: the model's default (infer::Network)
   // The camera reported (Prediction::fitted_camera). "auto": the given camera as it is, else
@@ -109,12 +121,22 @@ struct Prediction {
   // pixels valid before the flying-pixel filter (camera::angular_residual; the fit uses them
   // too: their rays are as good as any). A given camera has none: its rays are `rays`.
   std::optional<camera::AngularResidual> fit_residual;
+  CameraSource camera_source = CameraSource::kNone;  // fitted_camera's
+  // With a given (or EXIF) camera and a network that predicts rays of its own (OmniPoint, and
+  // MoGe-2 on a pinhole): the angle between the camera's rays and the network's over the pixels
+  // valid before the flying-pixel filter (camera::angular_residual). Large: the camera and the
+  // picture disagree (a wrong focal length, a cropped or resized photo).
+  std::optional<camera::AngularResidual> camera_agreement;
   std::string fit_error;  // why no camera was fitted, when fit_model asked for one
   model::Precision precision = model::Precision::kFloat32;  // the network's
   std::vector<std::string> notes;     // what the prediction did that a user should know
   std::vector<std::string> warnings;  // inputs that look wrong (sparse_depth_warnings)
   StageTimes timing;
 };
+
+// Where p.fitted_camera comes from: p.camera_source, or for a prediction assembled by hand
+// (prediction_from_geometry) that names none, kFitted when it has a fit residual, else kGiven.
+CameraSource camera_source_of(const Prediction& p);
 
 // A loaded model. Copies share the weights; predict is const and thread-safe (inference mode,
 // no shared mutable state).
