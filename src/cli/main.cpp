@@ -99,6 +99,7 @@ int main(int argc, char** argv) try {
   app.require_subcommand(1);
   app.set_version_flag("--version", "omnipoint 0.1.0");
   omnipoint::cli::add_camera_command(app);
+  omnipoint::cli::add_data_command(app);
   omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_init_model_command(app);
