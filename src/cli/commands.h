@@ -9,6 +9,7 @@ class App;
 namespace omnipoint::cli {
 
 void add_camera_command(CLI::App& app);
+void add_data_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
 void add_forward_command(CLI::App& app);
 void add_init_model_command(CLI::App& app);

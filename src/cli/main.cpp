@@ -105,6 +105,7 @@ int main(int argc, char** argv) try {
       "scratch on its own synthetic scenes"
       "\nmodels fetched by name keep their own licences (README, \"Licences\")");
   omnipoint::cli::add_camera_command(app);
+  omnipoint::cli::add_data_command(app);
   omnipoint::cli::add_eval_command(app);
   omnipoint::cli::add_forward_command(app);
   omnipoint::cli::add_init_model_command(app);

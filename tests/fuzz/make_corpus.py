@@ -366,6 +366,12 @@ SEEDS = {
     "rig/json_camera.json": js({"cameras": [{"name": "pano", "camera": {"model": "EQUIRECTANGULAR", "width": 64,
                                                                        "height": 32, "params": []},
                                              "body_from_camera": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]}]}),
+    "native_text/2d3ds.txt": b"area_5a/pano/rgb/camera_0a_office_1_frame_equirectangular_domain_rgb.png "
+                             b"area_5a/pano/depth/camera_0a_office_1_frame_equirectangular_domain_depth.png\n",
+    "native_text/matterport3d_test.txt": b"# UniFuse\r\n17DRP5sb8fy/pano_skybox_color/0b22.jpg 17DRP5sb8fy/pano_depth/0b22.png\r\n\n",
+    "native_text/dac_m3d.txt": b"2t7WUuJeko7/0_spherical_1_emission_center_0.png "
+                               b"2t7WUuJeko7/0_spherical_1_depth_center_0.exr 162.97\n",
+    "native_text/camera_pose.txt": b"-1083.7 2450.2 1400.0 0.98 -0.17 0.0 0.0 0.0 1.0 0.6 0.48 1\n",
     "camera/line.txt": b"PINHOLE 640 480 500 500 320 240\n",
     "camera/cameras.txt": b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
                           b"1 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n\n"
@@ -534,6 +540,13 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "rig/lidar_format.json": (js(dict(RIG, lidar={"format": "velodyne", "body_from_lidar": RIG["lidar"]["body_from_lidar"]})),
                               "lidar.format: "),
     "rig/unknown_key.json": (js(dict(RIG, cameras=[dict(RIG_FRONT, pose=[])])), "cameras[0].pose: unknown key"),
+    "native_text/four_fields.txt": (b"a.png b.png 1\na.png b.png 1 2\n", ":2: expected 1 to 3 fields"),
+    "native_text/absolute.txt": (b"/data/a.png\n", "is not relative to the root"),
+    "native_text/climbs.txt": (b"area_1/../../a.png\n", "climbs out of the root"),
+    "native_text/nul.txt": (b"a\x00.png\n", "holds a NUL byte"),
+    "native_text/camera_pose_short.txt": (b"0 0 0 0 1 0 0 0 1 0.6 0.48\n", "expected one line of 12 numbers"),
+    "native_text/camera_pose_fov.txt": (b"0 0 0 0 1 0 0 0 1 1.6 0.48 1\n", "half-angles in (0, pi/2)"),
+    "native_text/camera_pose_word.txt": (b"0 0 0 0 1 0 0 0 1 0.6 x 1\n", "\"x\" is not a number"),
     "camera/unknown_model.txt": (b"1 NOPE 640 480 1 2 3\n", "unknown camera model 'NOPE'"),
     "camera/bad_json.json": (b'{"model": "PINHOLE", "width": 64', "not valid JSON"),
     "camera/comments_only.txt": (b"# nothing here\n\n", "contains no camera"),

@@ -16,6 +16,8 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/data/formats/native.h"
+#include "omnipoint/data/formats/native_text.h"
 #include "omnipoint/data/moge_format.h"
 #include "omnipoint/data/png_text.h"
 #include "omnipoint/data/sample.h"
@@ -266,15 +268,40 @@ inline Parser hub_model_info_parser() {
           [](const std::string& b, const std::string& s) { io::hub::checkpoint_files(b, s); }};
 }
 
+// The text files of datasets' native layouts (data/formats/): Structured3D's camera_pose.txt
+// for files named camera_pose*, else a split list; both parsers are driven with the same bytes.
+inline void parse_native_text(const std::string& b, const std::string& s) {
+  if (std::filesystem::path(s).filename().string().rfind("camera_pose", 0) == 0)
+    data::formats::parse_structured3d_pose(b, s);
+  else
+    data::formats::parse_split_list(b, s);
+}
+inline Parser native_text_parser() {
+  return {"native_text", parse_native_text, [](const std::string& b, const std::string& s) {
+            within_contract([&] { data::formats::parse_structured3d_pose(b, s); });
+            within_contract([&] { data::formats::parse_split_list(b, s); });
+          }};
+}
+
 // All of them (the replay test).
 inline const std::vector<Parser>& parsers() {
-  static const std::vector<Parser> table = {
-      safetensors_parser(),   checkpoint_parser(),      npy_parser(),
-      ply_parser(),           lidar_bin_parser(),       pcd_parser(),
-      colmap_parser(),        rigid_transform_parser(), rig_parser(),
-      camera_parser(),        train_config_parser(),    png_text_parser(),
-      moge_meta_parser(),     sample_meta_parser(),     checkpoint_metadata_parser(),
-      hub_model_info_parser()};
+  static const std::vector<Parser> table = {safetensors_parser(),
+                                            checkpoint_parser(),
+                                            npy_parser(),
+                                            ply_parser(),
+                                            lidar_bin_parser(),
+                                            pcd_parser(),
+                                            colmap_parser(),
+                                            rigid_transform_parser(),
+                                            rig_parser(),
+                                            camera_parser(),
+                                            train_config_parser(),
+                                            png_text_parser(),
+                                            moge_meta_parser(),
+                                            sample_meta_parser(),
+                                            checkpoint_metadata_parser(),
+                                            hub_model_info_parser(),
+                                            native_text_parser()};
   return table;
 }
 

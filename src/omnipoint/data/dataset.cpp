@@ -34,8 +34,8 @@ Registry& registry() {
 }  // namespace
 
 ListDataset::ListDataset(std::vector<std::string> items,
-                         std::function<Sample(const std::string&)> read)
-    : items_(std::move(items)), read_(std::move(read)) {}
+                         std::function<Sample(const std::string&)> read, Sources sources)
+    : items_(std::move(items)), read_(std::move(read)), sources_(std::move(sources)) {}
 
 int64_t ListDataset::size() const {
   return static_cast<int64_t>(items_.size());
@@ -58,11 +58,20 @@ std::string ListDataset::item_name(const ItemIndex& index) const {
   return items_.at(static_cast<size_t>(index.index));
 }
 
+std::vector<std::string> ListDataset::item_sources(const ItemIndex& index) const {
+  if (!sources_) return Dataset::item_sources(index);
+  return sources_(items_.at(static_cast<size_t>(index.index)));
+}
+
 bool operator<(const ItemIndex& a, const ItemIndex& b) {
   return std::tie(a.index, a.seed) < std::tie(b.index, b.seed);
 }
 
 Dataset::~Dataset() = default;
+
+std::vector<std::string> Dataset::item_sources(const ItemIndex& index) const {
+  return {item_name(index)};
+}
 
 ItemIndex Dataset::draw(synth::Random& random) const {
   return {random.integer(0, static_cast<int>(size()) - 1), 0};

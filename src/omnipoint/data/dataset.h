@@ -50,23 +50,31 @@ class Dataset {
   virtual Sample item(const ItemIndex& index) const = 0;
   // How messages name the item (its folder, for a dataset on disk).
   virtual std::string item_name(const ItemIndex& index) const = 0;
+  // The files the item is read from (`omnipoint data convert`'s manifest, `data check`'s
+  // missing files): by default its name alone.
+  virtual std::vector<std::string> item_sources(const ItemIndex& index) const;
   // An item drawn uniformly with `random`: by default the index random.integer(0, size() - 1).
   virtual ItemIndex draw(synth::Random& random) const;
 };
 
 // A dataset of named items, each read by a function of its name (a folder, a file, a line of
 // a split list): what most readers of a format on disk are. A reader's exception becomes a
-// SampleError (its text names the item); memory exhaustion stays what it is.
+// SampleError (its text names the item); memory exhaustion stays what it is. `sources`, when
+// given, names the files an item is read from (item_sources).
 class ListDataset : public Dataset {
  public:
-  ListDataset(std::vector<std::string> items, std::function<Sample(const std::string&)> read);
+  using Sources = std::function<std::vector<std::string>(const std::string&)>;
+  ListDataset(std::vector<std::string> items, std::function<Sample(const std::string&)> read,
+              Sources sources = {});
   int64_t size() const override;
   Sample item(const ItemIndex& index) const override;
   std::string item_name(const ItemIndex& index) const override;
+  std::vector<std::string> item_sources(const ItemIndex& index) const override;
 
  private:
   std::vector<std::string> items_;
   std::function<Sample(const std::string&)> read_;
+  Sources sources_;
 };
 
 // Where a dataset on disk is, and what its files may not say themselves.

@@ -13,5 +13,11 @@ std::vector<DatasetFormat> builtin_dataset_formats();
 
 DatasetFormat sample_folders_format();  // "folders": this project's sample folders (sample.h)
 DatasetFormat moge_format();            // "moge": MoGe's evaluation benchmarks (moge_format.h)
+// Panoramas and indoor renderings (formats/<name>.cpp, each with its layout and conventions).
+DatasetFormat stanford2d3d_format();
+DatasetFormat matterport360_format();
+DatasetFormat pano3d_format();
+DatasetFormat panosuncg_format();
+DatasetFormat structured3d_format();
 
 }  // namespace omnipoint::data

@@ -1,0 +1,108 @@
+// omnipoint data formats|check: the dataset readers and what each needs, and what a dataset
+// folder holds as its reader sees it.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <iostream>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "omnipoint/data/dataset.h"
+#include "omnipoint/data/dataset_check.h"
+
+namespace omnipoint::cli {
+namespace {
+
+void add_formats_command(CLI::App& parent) {
+  auto* command = parent.add_subcommand(
+      "formats",
+      "List the dataset formats: what each expects under its root, its options "
+      "(--option NAME=VALUE) and its named splits");
+  command->callback([] {
+    for (const data::DatasetFormat& format : data::dataset_format_list()) {
+      std::cout << format.name << "\n  " << format.summary << "\n";
+      for (const auto& [name, help] : format.options)
+        std::cout << "  option " << name << ": " << help << "\n";
+      if (!format.splits.empty()) {
+        std::cout << "  splits:";
+        for (const std::string& split : format.splits) std::cout << " " << split;
+        std::cout << "\n";
+      }
+    }
+  });
+}
+
+// "NAME=VALUE" -> options[NAME] = VALUE.
+void parse_options(const std::vector<std::string>& given,
+                   std::map<std::string, std::string>& options) {
+  for (const std::string& option : given) {
+    const std::size_t at = option.find('=');
+    if (at == std::string::npos || at == 0)
+      throw std::invalid_argument("--option " + option + ": expected NAME=VALUE");
+    options[option.substr(0, at)] = option.substr(at + 1);
+  }
+}
+
+nlohmann::json report_json(const data::DatasetCheckReport& report) {
+  return {
+      {"items", report.items},
+      {"read", report.read},
+      {"failed", report.failed},
+      {"missing_files", report.missing},
+      {"camera_models", report.camera_models},
+      {"metric_items", report.metric_items},
+      {"label_density",
+       {{"min", report.density_min}, {"mean", report.density_mean}, {"max", report.density_max}}},
+      {"distance_range", {report.distance_min, report.distance_max}}};
+}
+
+void add_check_command(CLI::App& parent) {
+  auto* command = parent.add_subcommand(
+      "check",
+      "Read a dataset through its format's reader and print, as JSON, the items found, "
+      "missing files, items that do not read, camera models, label density and "
+      "distance range; exits 1 when files are missing or items do not read");
+  auto options = std::make_shared<data::DatasetCheckOptions>();
+  auto given = std::make_shared<std::vector<std::string>>();
+  command->add_option("--format", options->format, "The dataset's format (`data formats`)")
+      ->required();
+  command->add_option("--root", options->location.path, "The dataset's root folder")->required();
+  command->add_option("--split", options->location.split,
+                      "One of the format's named splits, or a split list file");
+  command->add_option("--option", *given, "A format option NAME=VALUE (repeatable)");
+  command->add_flag("--metric", options->location.metric,
+                    "Formats without their own flag (moge): the depth is in metres");
+  command->add_option("--limit", options->limit,
+                      "Read this many items, spread over the dataset (default 0: all)");
+  command->add_option("--sheet", options->sheet_path,
+                      "Write a contact sheet PNG (image | distance) of a few items");
+  command->add_option("--sheet-items", options->sheet_items, "Items on the sheet (default 4)");
+  command->callback([options, given] {
+    parse_options(*given, options->location.options);
+    const data::DatasetCheckReport report = data::DatasetCheck(*options).Run();
+    std::cout << report_json(report).dump(2) << "\n";
+    if (report.ok()) return;
+    throw std::runtime_error(
+        "data check: " + std::to_string(report.missing.size()) + " missing files, " +
+        std::to_string(report.failed.size()) + " of " + std::to_string(report.read) +
+        " items do not read (first: " +
+        (report.missing.empty() ? report.failed.front() : report.missing.front() + " missing") +
+        ")");
+  });
+}
+
+}  // namespace
+
+void add_data_command(CLI::App& app) {
+  auto* data = app.add_subcommand(
+      "data", "Datasets on disk: the formats read, and checking a dataset folder");
+  data->require_subcommand(1);
+  add_formats_command(*data);
+  add_check_command(*data);
+}
+
+}  // namespace omnipoint::cli
