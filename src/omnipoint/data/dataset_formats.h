@@ -13,5 +13,7 @@ std::vector<DatasetFormat> builtin_dataset_formats();
 
 DatasetFormat sample_folders_format();  // "folders": this project's sample folders (sample.h)
 DatasetFormat moge_format();            // "moge": MoGe's evaluation benchmarks (moge_format.h)
+DatasetFormat kitti_raw_format();       // "kitti-raw": KITTI raw recordings (formats/kitti_raw.cpp)
+DatasetFormat kitti360_format();        // "kitti360": KITTI-360 (formats/kitti360.cpp)
 
 }  // namespace omnipoint::data
