@@ -116,13 +116,14 @@ class ConstantDataset : public Dataset {
 
 TEST(Dataset, FormatsAreRegisteredByName) {
   EXPECT_EQ(dataset_formats(),
-            (std::vector<std::string>{"folders", "kitti-raw", "kitti360", "moge"}));
+            (std::vector<std::string>{"folders", "kitti-raw", "kitti360", "moge", "rig-log"}));
   try {
     open_dataset("tar", {"x"});
     FAIL() << "an unknown format was opened";
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "dataset format \"tar\": unknown (known: folders, kitti-raw, kitti360, moge)");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "dataset format \"tar\": unknown (known: folders, kitti-raw, kitti360, moge, rig-log)");
   }
   register_dataset_format("constant", [](const DatasetLocation& location) {
     return std::make_unique<ConstantDataset>(location.path);
@@ -130,8 +131,8 @@ TEST(Dataset, FormatsAreRegisteredByName) {
   const std::unique_ptr<Dataset> dataset = open_dataset("constant", {"somewhere"});
   EXPECT_EQ(dataset->size(), 3);
   EXPECT_EQ(dataset->item_name({2, 0}), "somewhere#2");
-  EXPECT_EQ(dataset_formats(),
-            (std::vector<std::string>{"constant", "folders", "kitti-raw", "kitti360", "moge"}));
+  EXPECT_EQ(dataset_formats(), (std::vector<std::string>{"constant", "folders", "kitti-raw",
+                                                         "kitti360", "moge", "rig-log"}));
   EXPECT_THROW(register_dataset_format("constant",
                                        [](const DatasetLocation& location) {
                                          return std::make_unique<ConstantDataset>(location.path);

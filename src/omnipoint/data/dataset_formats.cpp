@@ -66,7 +66,8 @@ DatasetFormat moge_format() {
 }
 
 std::vector<DatasetFormat> builtin_dataset_formats() {
-  return {sample_folders_format(), moge_format(), kitti_raw_format(), kitti360_format()};
+  return {sample_folders_format(), moge_format(), kitti_raw_format(), kitti360_format(),
+          rig_log_format()};
 }
 
 }  // namespace omnipoint::data

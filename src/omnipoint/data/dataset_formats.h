@@ -15,5 +15,6 @@ DatasetFormat sample_folders_format();  // "folders": this project's sample fold
 DatasetFormat moge_format();            // "moge": MoGe's evaluation benchmarks (moge_format.h)
 DatasetFormat kitti_raw_format();       // "kitti-raw": KITTI raw recordings (formats/kitti_raw.cpp)
 DatasetFormat kitti360_format();        // "kitti360": KITTI-360 (formats/kitti360.cpp)
+DatasetFormat rig_log_format();         // "rig-log": a rig's own logs (formats/rig_log.cpp)
 
 }  // namespace omnipoint::data
