@@ -302,6 +302,21 @@ def pickle_global(module, name, argument):
             + b"tR.")
 
 
+KITTI_CAM_TO_CAM = (b"calib_time: 09-Jan-2012 13:57:47\ncorner_dist: 9.950000e-02\n"
+                    b"S_rect_00: 1.242000e+03 3.750000e+02\n"
+                    b"R_rect_00: 9.999239e-01 9.837760e-03 -7.445048e-03 -9.869795e-03 9.999421e-01 "
+                    b"-4.278459e-03 7.402527e-03 4.351614e-03 9.999631e-01\n"
+                    b"S_rect_02: 1.242000e+03 3.750000e+02\n"
+                    b"P_rect_02: 7.215377e+02 0.000000e+00 6.095593e+02 4.485728e+01 0.000000e+00 "
+                    b"7.215377e+02 1.728540e+02 2.163791e-01 0.000000e+00 0.000000e+00 1.000000e+00 "
+                    b"2.745884e-03\n")
+KITTI360_FISHEYE = (b"%YAML:1.0\nmodel_type: MEI\ncamera_name: image_02\nimage_width: 1400\n"
+                    b"image_height: 1400\nmirror_parameters:\n   xi: 2.2134047507854890e+00\n"
+                    b"distortion_parameters:\n   k1: 1.6798235660113681e-02\n   k2: 1.6548773243373522e+00\n"
+                    b"   p1: 4.2223943394772046e-04\n   p2: 4.2462134260997584e-04\n"
+                    b"projection_parameters:\n   gamma1: 1.3363220825849971e+03\n"
+                    b"   gamma2: 1.3357883350012958e+03\n   u0: 7.1694323510126321e+02\n"
+                    b"   v0: 7.0576498308221585e+02\n")
 SEEDS = {
     "safetensors/empty.safetensors": safetensors({}),
     "safetensors/metadata_only.safetensors": safetensors({"__metadata__": {"format": "moge2", "config": "{}"}}),
@@ -416,6 +431,23 @@ SEEDS = {
                                                   {"rfilename": "model.pt"}]}),
     "hub_model_info/several.json": js({"id": "o/r", "siblings": [{"rfilename": "a/model.safetensors"},
                                                                  {"rfilename": "b.pth"}, {"rfilename": "c.json"}]}),
+    "kitti_text/calib_cam_to_cam.txt": KITTI_CAM_TO_CAM,
+    "kitti_text/image_02.yaml": KITTI360_FISHEYE,
+    "kitti_text/perspective.txt": b"P_rect_00: 5.525500e+02 0.000000e+00 6.820500e+02 0.000000e+00 "
+                                  b"0.000000e+00 5.525500e+02 2.387700e+02 0.000000e+00 0.000000e+00 "
+                                  b"0.000000e+00 1.000000e+00 0.000000e+00\n"
+                                  b"R_rect_00: 0.999974 -0.007141 -0.000089 0.007141 0.999969 -0.003247 "
+                                  b"0.000112 0.003247 0.999995\nS_rect_00: 1.408000e+03 3.760000e+02\n",
+    "kitti_text/calib_cam_to_pose.txt": b"image_00: 0.0371 -0.0986 0.9944 1.5752 0.9992 -0.0053 -0.0378 "
+                                        b"0.0043 0.0090 0.9951 0.0983 -0.6500\n"
+                                        b"image_02: 0.9995 0.0010 0.0308 0.7265 -0.0307 -0.0262 0.9992 "
+                                        b"-0.1471 0.0018 -0.9997 -0.0262 -0.8627\n",
+    "kitti_text/poses.txt": b"3 0.99 0.01 0 1.5 -0.01 0.99 0 2.5 0 0 1 3.5\n"
+                            b"5 1 0 0 1.6 0 1 0 2.6 0 0 1 3.6\n",
+    "kitti_text/kitti360_list_val.txt": b"data_2d_raw/2013_05_28_drive_0000_sync/image_02/data_rgb/0000000000.png "
+                                        b"proj_depth/2013_05_28_drive_0000_sync/image_02/0000000000.png 1336.3221\n",
+    "kitti_text/eigen_test_files.txt": b"2011_09_26/2011_09_26_drive_0002_sync 69 l\n"
+                                       b"2011_09_26/2011_09_26_drive_0002_sync 54 r\n",
 }
 
 
@@ -627,6 +659,12 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
                                    "lists the file \"../../evil.pt\", which is no path inside the repository"),
     "hub_model_info/absolute.json": (js({"siblings": [{"rfilename": "/etc/model.pt"}]}),
                                      "which is no path inside the repository"),
+    "kitti_text/calib_cam_to_cam_no_p.txt": (KITTI_CAM_TO_CAM.replace(b"P_rect_02", b"P_rect_2"),
+                                              "no key P_rect_02"),
+    "kitti_text/image_02_model.yaml": (KITTI360_FISHEYE.replace(b"MEI", b"PINHOLE"),
+                                       "only MEI (the KITTI-360 fisheyes' model) is read"),
+    "kitti_text/poses_short.txt": (b"3 1 0 0 0 0 1 0 0 0 0 1\n", "expected 13 numbers"),
+    "kitti_text/eigen_side.txt": (b"2011_09_26/2011_09_26_drive_0002_sync 69 x\n", "the side must be l or r"),
 }
 
 def checkpoint_malformed():

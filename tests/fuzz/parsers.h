@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/data/formats/kitti_text.h"
 #include "omnipoint/data/formats/native.h"
 #include "omnipoint/data/formats/native_text.h"
 #include "omnipoint/data/moge_format.h"
@@ -162,6 +163,43 @@ inline Parser colmap_parser() {
             within_contract([&] { io::parse_colmap_points_binary(b, s); });
           }};
 }
+// The text files of KITTI raw and KITTI-360 (data/formats/kitti_text.h). The checked entry
+// picks the parser by the file's name, as colmap's does: *.yaml a fisheye calibration,
+// calib_cam_to_cam* (camera image_02), perspective* (image_00), calib_cam_to_pose*, poses*,
+// kitti360_list* a DAC list, any other name a KITTI raw split list; all are driven with the
+// same bytes.
+inline void parse_kitti_text_file(const std::string& b, const std::string& s) {
+  const std::filesystem::path path(s);
+  const std::string file = path.filename().string();
+  const auto named = [&](const char* stem) { return file.rfind(stem, 0) == 0; };
+  if (path.extension() == ".yaml")
+    data::parse_kitti360_fisheye(b, s, data::PrincipalPoint::kIntegerCentre, false);
+  else if (named("calib_cam_to_cam"))
+    data::parse_kitti_raw_camera(b, s, "image_02", data::PrincipalPoint::kIntegerCentre);
+  else if (named("perspective"))
+    data::parse_kitti360_perspective(b, s, "image_00", data::PrincipalPoint::kIntegerCentre);
+  else if (named("calib_cam_to_pose"))
+    data::parse_kitti360_cam_to_pose(b, s);
+  else if (named("poses"))
+    data::parse_kitti360_poses(b, s);
+  else if (named("kitti360_list"))
+    data::parse_kitti360_list(b, s);
+  else
+    data::parse_kitti_raw_list(b, s);
+}
+inline Parser kitti_text_parser() {
+  return {
+      "kitti_text", parse_kitti_text_file, [](const std::string& b, const std::string& s) {
+        using data::PrincipalPoint;
+        within_contract([&] { data::parse_kitti360_fisheye(b, s, PrincipalPoint::kCorner, true); });
+        within_contract([&] { data::parse_kitti_raw_camera(b, s, "image_03", {}); });
+        within_contract([&] { data::parse_kitti360_perspective(b, s, "image_01", {}); });
+        within_contract([&] { data::parse_kitti360_cam_to_pose(b, s); });
+        within_contract([&] { data::parse_kitti360_poses(b, s); });
+        within_contract([&] { data::parse_kitti360_list(b, s); });
+        within_contract([&] { data::parse_kitti_raw_list(b, s); });
+      }};
+}
 inline Parser rigid_transform_parser() {
   return {"rigid_transform",
           [](const std::string& b, const std::string& s) { io::parse_rigid_transform(b, s); }};
@@ -301,7 +339,8 @@ inline const std::vector<Parser>& parsers() {
                                             sample_meta_parser(),
                                             checkpoint_metadata_parser(),
                                             hub_model_info_parser(),
-                                            native_text_parser()};
+                                            native_text_parser(),
+                                            kitti_text_parser()};
   return table;
 }
 

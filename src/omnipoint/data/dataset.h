@@ -7,6 +7,7 @@
 //              in name order; a staging folder (io/staged_folder.h) is a sample still
 //              being written, left out)
 //   "moge"     a MoGe evaluation benchmark root (moge_format.h; its .index.txt order)
+//   "kitti-raw", "kitti360", "rig-log"   driving logs with sparse LiDAR labels (formats/)
 // The synthetic scene engine is a dataset too (synth/synth_dataset.h), made in memory.
 #include <cstdint>
 #include <functional>

@@ -13,6 +13,10 @@ std::vector<DatasetFormat> builtin_dataset_formats();
 
 DatasetFormat sample_folders_format();  // "folders": this project's sample folders (sample.h)
 DatasetFormat moge_format();            // "moge": MoGe's evaluation benchmarks (moge_format.h)
+// Driving and a rig's own logs.
+DatasetFormat kitti_raw_format();  // "kitti-raw": KITTI raw recordings (formats/kitti_raw.cpp)
+DatasetFormat kitti360_format();   // "kitti360": KITTI-360 (formats/kitti360.cpp)
+DatasetFormat rig_log_format();    // "rig-log": a rig's own logs (formats/rig_log.cpp)
 // Panoramas and indoor renderings (formats/<name>.cpp, each with its layout and conventions).
 DatasetFormat stanford2d3d_format();
 DatasetFormat matterport360_format();

@@ -71,6 +71,30 @@ void walk(const std::string& png, const std::string& name, Visit visit) {
 
 }  // namespace
 
+PngHeader read_png_header(const std::string& png, const std::string& name) {
+  // Signature (8 bytes), then IHDR: length 13, "IHDR", width, height, bit depth, colour type.
+  if (png.size() < kSignatureSize + 8 + 13 ||
+      png.compare(0, kSignatureSize, kSignature, kSignatureSize) != 0 ||
+      read_u32(png, kSignatureSize) != 13 || png.compare(kSignatureSize + 4, 4, "IHDR") != 0)
+    throw std::runtime_error(name + ": not a PNG file (no PNG signature and header)");
+  PngHeader header;
+  header.width = read_u32(png, kSignatureSize + 8);
+  header.height = read_u32(png, kSignatureSize + 12);
+  header.bit_depth = static_cast<unsigned char>(png[kSignatureSize + 16]);
+  header.colour_type = static_cast<unsigned char>(png[kSignatureSize + 17]);
+  return header;
+}
+
+std::string png_pixel_format(const PngHeader& header) {
+  const char* kind = header.colour_type == 0   ? "grey"
+                     : header.colour_type == 2 ? "RGB"
+                     : header.colour_type == 3 ? "palette"
+                     : header.colour_type == 4 ? "grey+alpha"
+                     : header.colour_type == 6 ? "RGBA"
+                                               : "unknown-colour";
+  return std::to_string(header.bit_depth) + "-bit " + kind;
+}
+
 std::map<std::string, std::string> read_png_text(const std::string& png, const std::string& name) {
   std::map<std::string, std::string> text;
   walk(png, name, [&](const Chunk& c) {

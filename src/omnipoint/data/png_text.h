@@ -11,6 +11,18 @@ namespace omnipoint::data {
 // skipped). A stream that is not a well-formed PNG -> std::runtime_error naming `name`.
 std::map<std::string, std::string> read_png_text(const std::string& png, const std::string& name);
 
+// What a PNG's header (its first chunk, IHDR) says: the size, the bits per channel and the
+// colour type (0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA). A stream that does not begin
+// with the PNG signature and a whole IHDR -> std::runtime_error naming `name`.
+struct PngHeader {
+  std::int64_t width = 0, height = 0;
+  int bit_depth = 0;
+  int colour_type = 0;
+};
+PngHeader read_png_header(const std::string& png, const std::string& name);
+// "16-bit grey", "8-bit RGB", ...: how messages name a header's pixel format.
+std::string png_pixel_format(const PngHeader& header);
+
 // The CRC-32 that closes a PNG chunk, over its type and data.
 std::uint32_t png_crc32(const std::string& type_and_data);
 

@@ -61,13 +61,18 @@ SampleMeta parse_sample_meta(const std::string& text, const std::string& name) {
   }
   if (!meta.is_object() || !meta.contains("camera")) fail("meta.json has no \"camera\"");
   // meta.value("metric", false) would throw nlohmann's type_error for a non-bool.
-  const auto metric = meta.find("metric");
-  if (metric != meta.end() && !metric->is_boolean())
-    fail("meta.json \"metric\" must be true or false, got " + metric->dump());
+  const auto flag = [&](const char* key) {
+    const auto found = meta.find(key);
+    if (found == meta.end()) return false;
+    if (!found->is_boolean())
+      fail(std::string("meta.json \"") + key + "\" must be true or false, got " + found->dump());
+    return found->get<bool>();
+  };
+  const bool metric = flag("metric"), sparse_labels = flag("sparse_labels");
   const auto& spec = meta.at("camera");
   try {
-    return {camera::parse_camera(spec.is_string() ? spec.get<std::string>() : spec.dump()),
-            metric != meta.end() && metric->get<bool>()};
+    return {camera::parse_camera(spec.is_string() ? spec.get<std::string>() : spec.dump()), metric,
+            sparse_labels};
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(name + ": unknown or invalid camera: " + e.what());
   }
@@ -91,6 +96,7 @@ Sample read_sample(const std::string& folder_name) {
   const auto image_path = first_existing(folder, {"image.png", "image.jpg", "image.jpeg"});
   if (image_path.empty()) fail("no image.png or image.jpg");
   Sample sample{*cam, {}, {}, {}, meta.metric};
+  sample.sparse_labels = meta.sparse_labels;
   try {
     sample.image = io::read_image(image_path);
     if (sample.image.size(0) != h || sample.image.size(1) != w)
@@ -145,6 +151,7 @@ void write_sample(const std::string& folder_name, const Sample& sample,
   meta["format"] = "omnipoint-sample-1";
   meta["camera"] = sample.camera.to_spec();
   meta["metric"] = sample.metric;
+  if (sample.sparse_labels) meta["sparse_labels"] = true;
   io::write_image_png((folder / "image.png").string(), sample.image.contiguous().cpu());
   io::write_npy((folder / "distance.npy").string(), sample.distance.cpu());
   io::write_image_png((folder / "mask.png").string(), sample.mask.cpu());

@@ -5,8 +5,9 @@
 //   depth.npy                (H, W) float32 planar depth (camera-frame z), used when
 //                            distance.npy is absent (pixels with ray z ~ 0 then unusable)
 //   mask.png | mask.npy      optional (H, W): valid geometry (non-zero); absent -> distance > 0
-//   meta.json                {"camera": SPEC, "metric": bool, ...} with the camera spec in
-//                            docs/DESIGN.md's convention (COLMAP line or JSON object)
+//   meta.json                {"camera": SPEC, "metric": bool, "sparse_labels": bool, ...} with
+//                            the camera spec in docs/DESIGN.md's convention (COLMAP line or
+//                            JSON object); "sparse_labels" (default false) as Sample's
 // Zero distance means "no label" (sky, outside the lens); +inf is read as sky.
 #include <ATen/core/Tensor.h>
 
@@ -25,6 +26,10 @@ struct Sample {
   // (4, 4) float64 world-from-camera pose where the dataset has one (sequences, rigs);
   // undefined otherwise. Nothing a single-image task needs.
   at::Tensor world_from_camera = {};
+  // The labels are sparse samples (LiDAR, SfM points): an unlabelled pixel is unknown, not
+  // empty (not sky), and labelled pixels have few labelled neighbours. Dense labels (rendered or
+  // sensor depth maps) leave it false: there an unlabelled valid pixel holds no geometry.
+  bool sparse_labels = false;
 };
 
 // What meta.json says: the camera and whether distances are metric ("metric": bool, false
@@ -32,9 +37,10 @@ struct Sample {
 struct SampleMeta {
   camera::Camera camera;
   bool metric = false;
+  bool sparse_labels = false;
 };
-// meta.json's text; not JSON, no "camera", an unknown or invalid camera or a "metric" that is
-// not a bool -> std::runtime_error naming `name`.
+// meta.json's text; not JSON, no "camera", an unknown or invalid camera or a "metric" or
+// "sparse_labels" that is not a bool -> std::runtime_error naming `name`.
 SampleMeta parse_sample_meta(const std::string& text, const std::string& name);
 
 // Reads and validates a sample folder. Missing or corrupt files, sizes that disagree with

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "omnipoint/geometry/sparse_sampling.h"
+
 namespace omnipoint::data {
 
 Sample crop_sample(const Sample& s, int64_t x0, int64_t y0, int64_t width, int64_t height) {
@@ -18,8 +20,12 @@ Sample crop_sample(const Sample& s, int64_t x0, int64_t y0, int64_t width, int64
   const auto window = [&](const at::Tensor& t) {
     return t.narrow(0, y0, height).narrow(1, x0, width).contiguous();
   };
-  return Sample{s.camera.cropped(x0, y0, width, height), window(s.image), window(s.distance),
-                window(s.mask), s.metric};
+  Sample cropped = s;  // the other fields (pose, label kind) carry over
+  cropped.camera = s.camera.cropped(x0, y0, width, height);
+  cropped.image = window(s.image);
+  cropped.distance = window(s.distance);
+  cropped.mask = window(s.mask);
+  return cropped;
 }
 
 Sample resize_sample(const Sample& s, int64_t width, int64_t height) {
@@ -41,8 +47,21 @@ Sample resize_sample(const Sample& s, int64_t width, int64_t height) {
   const auto nearest = [&](const at::Tensor& t) {
     return t.index_select(0, rows).index_select(1, cols).contiguous();
   };
-  return Sample{s.camera.resized(width, height), image.squeeze(0).permute({1, 2, 0}).contiguous(),
-                nearest(s.distance), nearest(s.mask), s.metric};
+  Sample resized = s;  // the other fields (pose, label kind) carry over
+  resized.camera = s.camera.resized(width, height);
+  resized.image = image.squeeze(0).permute({1, 2, 0}).contiguous();
+  if (s.sparse_labels) {
+    // Nearest-neighbour picking would keep about one sample in (W·H)/(W'·H') when shrinking:
+    // each sample moves to the new pixel holding its pixel centre instead (nearest one wins).
+    resized.distance = geometry::resize_sparse_map(
+                           at::where(s.mask, s.distance, at::zeros_like(s.distance)), width, height)
+                           .contiguous();
+    resized.mask = resized.distance > 0;
+  } else {
+    resized.distance = nearest(s.distance);
+    resized.mask = nearest(s.mask);
+  }
+  return resized;
 }
 
 Sample fit_sample(const Sample& sample, int64_t width, int64_t height) {

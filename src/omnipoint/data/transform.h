@@ -12,7 +12,9 @@ namespace omnipoint::data {
 Sample crop_sample(const Sample& sample, int64_t x0, int64_t y0, int64_t width, int64_t height);
 
 // Resampled to width x height: the image bilinearly (area-averaged when shrinking), the
-// distance and mask by nearest neighbour (never mixing foreground and background depths).
+// distance and mask by nearest neighbour (never mixing foreground and background depths);
+// sparse labels (Sample::sparse_labels) each to the new pixel holding its pixel centre, so
+// that none is lost to the subsampling grid (geometry::resize_sparse_map).
 Sample resize_sample(const Sample& sample, int64_t width, int64_t height);
 
 // The largest centred window of the sample with the aspect ratio of width x height, resized to

@@ -5,14 +5,16 @@
 #include <algorithm>
 #include <charconv>
 #include <cstring>
-#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/file_name.h"
+#include "omnipoint/io/keyed_text.h"
 #include "omnipoint/io/npy.h"
+#include "omnipoint/io/pcd.h"
+#include "omnipoint/io/ply.h"
 
 namespace omnipoint::io {
 namespace {
@@ -77,39 +79,16 @@ bool is_keyed(const std::string& text) {
 // The transform of a KITTI calibration file: "Tr: 12 numbers" (odometry) or "R: 9" and
 // "T: 3" (raw); every other key is ignored.
 at::Tensor keyed_transform(const std::string& text, const std::string& name) {
-  std::map<std::string, std::vector<double>> wanted;  // R, T, Tr -> their numbers
-  std::vector<std::string> keys;
-  std::istringstream lines(text);
-  for (std::string line; std::getline(lines, line);) {
-    const size_t colon = line.find(':');
-    std::istringstream words(line.substr(0, colon));
-    std::string key, extra;
-    words >> key;
-    if (key.empty() && colon == std::string::npos) continue;
-    if (colon == std::string::npos || key.empty() || (words >> extra))
-      throw std::invalid_argument("camera-from-LiDAR " + name + ": the line \"" + line +
-                                  "\" is not \"KEY: values\" (a KITTI calibration file)");
-    if (std::find(keys.begin(), keys.end(), key) != keys.end())
-      throw std::invalid_argument("camera-from-LiDAR " + name + ": the key " + key +
-                                  " appears twice");
-    keys.push_back(key);
-    if (key == "R" || key == "T" || key == "Tr")
-      wanted[key] = numbers_in(line.substr(colon + 1), name + " " + key);
-  }
-  const auto numbers = [&](const std::string& key, size_t expected) {
-    const std::vector<double>& values = wanted.at(key);
-    if (values.size() != expected)
-      throw std::invalid_argument("camera-from-LiDAR " + name + ": " + key + ": expected " +
-                                  std::to_string(expected) + " numbers, got " +
-                                  std::to_string(values.size()));
-    return at::tensor(values, at::kDouble);
+  const KeyedText keyed = KeyedText::parse(text, "camera-from-LiDAR " + name);
+  const auto numbers = [&](const std::string& key, size_t count) {
+    return at::tensor(keyed.numbers(key, count), at::kDouble);
   };
-  if (wanted.count("Tr")) return numbers("Tr", 12).view({3, 4});
-  if (wanted.count("R") && wanted.count("T"))
+  if (keyed.has("Tr")) return numbers("Tr", 12).view({3, 4});
+  if (keyed.has("R") && keyed.has("T"))
     return at::cat({numbers("R", 9).view({3, 3}), numbers("T", 3).view({3, 1})}, 1);
   std::string found;
-  for (const std::string& key : keys) found += (found.empty() ? "" : ", ") + key;
-  const std::string missing = wanted.count("R") ? "T" : wanted.count("T") ? "R" : "R and T";
+  for (const std::string& key : keyed.keys()) found += (found.empty() ? "" : ", ") + key;
+  const std::string missing = keyed.has("R") ? "T" : keyed.has("T") ? "R" : "R and T";
   throw std::invalid_argument("camera-from-LiDAR " + name + ": a KITTI calibration file needs " +
                               missing +
                               " (raw calib_velo_to_cam.txt) or Tr (odometry calib.txt); "
@@ -160,6 +139,22 @@ at::Tensor read_lidar_bin(const std::string& path, int64_t floats_per_point) {
 
 at::Tensor read_kitti_bin(const std::string& path) {
   return read_lidar_bin(path, 4);
+}
+
+bool is_point_cloud_file(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == ".ply" || ext == ".pcd" || ext == ".bin";
+}
+
+at::Tensor read_point_cloud(const std::string& path, int64_t floats_per_point,
+                            const std::string& what) {
+  const std::string ext = lower_extension(path);
+  const at::Tensor points = ext == ".ply"   ? read_ply(path).points
+                            : ext == ".pcd" ? read_pcd(path)
+                                            : read_lidar_bin(path, floats_per_point);
+  if (points.dim() != 2 || points.size(1) != 3 || points.size(0) == 0)
+    throw std::invalid_argument(what + " " + path + ": expected a non-empty point cloud");
+  return points.to(at::kFloat);
 }
 
 at::Tensor parse_rigid_transform(const std::string& text, const std::string& name) {

@@ -24,6 +24,14 @@ at::Tensor read_lidar_bin(const std::string& path, int64_t floats_per_point);
 // The KITTI layout (4 floats per point).
 at::Tensor read_kitti_bin(const std::string& path);
 
+// Whether `path` names a point cloud by its extension: .ply, .pcd or a .bin scan.
+bool is_point_cloud_file(const std::string& path);
+// A point cloud file as (N, 3) float32 points (x, y, z; other properties dropped): .ply
+// (io/ply.h), .pcd (io/pcd.h) or a .bin scan of `floats_per_point` float32 per point. An empty
+// cloud raises std::invalid_argument naming the file (`what` in front: "sparse depth", ...).
+at::Tensor read_point_cloud(const std::string& path, int64_t floats_per_point,
+                            const std::string& what = "point cloud");
+
 // (4, 4) float64 camera-from-LiDAR transform from text, in one of these forms:
 // - 16 numbers (4x4) or 12 (a 3x4 "R|t"), row-major, separated by whitespace or commas;
 // - KITTI raw `calib_velo_to_cam.txt`: lines `R: 9 numbers` and `T: 3 numbers` (other keyed

@@ -14,8 +14,6 @@
 #include "omnipoint/io/file_name.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
-#include "omnipoint/io/pcd.h"
-#include "omnipoint/io/ply.h"
 #include "omnipoint/io/point_cloud.h"
 
 namespace omnipoint::predict {
@@ -44,16 +42,6 @@ at::Tensor depth_map(const std::string& path, const std::string& ext,
   }
 }
 
-at::Tensor point_cloud(const std::string& path, const std::string& ext,
-                       int64_t lidar_floats_per_point) {
-  const at::Tensor points = ext == ".ply"   ? io::read_ply(path).points
-                            : ext == ".pcd" ? io::read_pcd(path)
-                                            : io::read_lidar_bin(path, lidar_floats_per_point);
-  if (points.dim() != 2 || points.size(1) != 3 || points.size(0) == 0)
-    throw std::invalid_argument("sparse depth " + path + ": expected a non-empty point cloud");
-  return points.to(at::kFloat);
-}
-
 }  // namespace
 
 const std::vector<std::string>& sparse_depth_extensions() {
@@ -63,8 +51,7 @@ const std::vector<std::string>& sparse_depth_extensions() {
 }
 
 bool is_point_cloud_file(const std::string& path) {
-  const std::string ext = io::lower_extension(path);
-  return ext == ".ply" || ext == ".pcd" || ext == ".bin";
+  return io::is_point_cloud_file(path);
 }
 
 SparseDepthInput read_sparse_depth(const std::string& path, const SparseDepthFileOptions& options) {
@@ -75,7 +62,7 @@ SparseDepthInput read_sparse_depth(const std::string& path, const SparseDepthFil
   const std::string ext = io::lower_extension(path);
   SparseDepthInput input;
   if (is_point_cloud_file(path)) {
-    input.lidar_points = point_cloud(path, ext, options.lidar_floats_per_point);
+    input.lidar_points = io::read_point_cloud(path, options.lidar_floats_per_point, "sparse depth");
     input.camera_from_lidar = options.camera_from_lidar;
     return input;
   }
