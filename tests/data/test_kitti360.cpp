@@ -254,7 +254,7 @@ TEST(Kitti360, DacListsWithDistancePngs) {
       [&] {
         open_dataset("kitti360", {root.string(), false, list.string()})->item({0, 0});
       },
-      {depth.string(), "expected a 16-bit grey depth PNG, got 8-bit grey"});
+      {depth.string(), "expected a 16-bit grey PNG, got an 8-bit grey one"});
   io::write_image_png(depth.string(), at::zeros({kSize, kSize + 1}, at::kInt));
   expect_error(
       [&] {

@@ -85,16 +85,6 @@ PngHeader read_png_header(const std::string& png, const std::string& name) {
   return header;
 }
 
-std::string png_pixel_format(const PngHeader& header) {
-  const char* kind = header.colour_type == 0   ? "grey"
-                     : header.colour_type == 2 ? "RGB"
-                     : header.colour_type == 3 ? "palette"
-                     : header.colour_type == 4 ? "grey+alpha"
-                     : header.colour_type == 6 ? "RGBA"
-                                               : "unknown-colour";
-  return std::to_string(header.bit_depth) + "-bit " + kind;
-}
-
 std::map<std::string, std::string> read_png_text(const std::string& png, const std::string& name) {
   std::map<std::string, std::string> text;
   walk(png, name, [&](const Chunk& c) {

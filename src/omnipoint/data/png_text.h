@@ -20,8 +20,6 @@ struct PngHeader {
   int colour_type = 0;
 };
 PngHeader read_png_header(const std::string& png, const std::string& name);
-// "16-bit grey", "8-bit RGB", ...: how messages name a header's pixel format.
-std::string png_pixel_format(const PngHeader& header);
 
 // The CRC-32 that closes a PNG chunk, over its type and data.
 std::uint32_t png_crc32(const std::string& type_and_data);

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "omnipoint/data/png_text.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 
@@ -43,21 +44,13 @@ std::string file_head(const std::string& path, std::size_t count) {
 }  // namespace
 
 PngHeader parse_png_header(const std::string& bytes, const std::string& path) {
-  static const std::string signature("\x89PNG\r\n\x1a\n", 8);
-  if (bytes.size() < 33 || bytes.compare(0, 8, signature) != 0 || bytes.compare(12, 4, "IHDR"))
-    throw std::runtime_error(path + ": not a PNG file");
-  const auto u32 = [&](std::size_t at) {
-    int64_t value = 0;
-    for (std::size_t i = 0; i < 4; ++i)
-      value = value << 8 | static_cast<unsigned char>(bytes[at + i]);
-    return value;
-  };
+  const data::PngHeader ihdr = data::read_png_header(bytes, path);
   PngHeader header;
-  header.width = u32(16);
-  header.height = u32(20);
-  header.bit_depth = static_cast<unsigned char>(bytes[24]);
+  header.width = ihdr.width;
+  header.height = ihdr.height;
+  header.bit_depth = ihdr.bit_depth;
   // PNG colour types: 0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA.
-  switch (static_cast<unsigned char>(bytes[25])) {
+  switch (ihdr.colour_type) {
     case 0:
       header.channels = 1;
       break;
