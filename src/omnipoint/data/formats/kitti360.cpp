@@ -38,9 +38,9 @@
 #include <vector>
 
 #include "omnipoint/data/dataset_formats.h"
-#include "omnipoint/data/formats/native.h"
 #include "omnipoint/data/formats/kitti_text.h"
 #include "omnipoint/data/formats/lidar_labels.h"
+#include "omnipoint/data/formats/native.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/npy.h"
@@ -129,7 +129,8 @@ Sample read_kitti360_frame(const fs::path& root, const Frame& frame,
         std::to_string(sample.image.size(0)) + " but the calibration's " + camera_name + " is " +
         std::to_string(width) + "x" + std::to_string(height));
   if (!frame.depth.empty()) {
-    at::Tensor distance = formats::read_depth_png(frame.depth, 16, 1, width, height).to(at::kFloat) / 256;
+    at::Tensor distance =
+        formats::read_depth_png(frame.depth, 16, 1, width, height).to(at::kFloat) / 256;
     if (!is_fisheye(camera_name)) {  // planar depth z -> distance along the unit ray
       const at::Tensor ray_z = camera.ray_map(at::kFloat).rays.select(-1, 2);
       distance =
