@@ -5,11 +5,12 @@ set -euo pipefail
 # libgloo-dev: the gloo headers that c10d's ProcessGroupGloo.hpp includes (Gloo itself is in libtorch_cpu).
 # liblzf-dev: LZF for binary_compressed .pcd point clouds.
 # libcpp-httplib-dev: the web server of `omnipoint view` (and the hub tests' stand-in server).
-# libcurl4-openssl-dev: downloads of published models (--model hf:...).
+# libcurl4-openssl-dev, libssl-dev: downloads of published models and their checksums
+# (--model hf:...).
 # libexif-dev: a photo's camera and orientation from its EXIF data.
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev libgloo-dev liblzf-dev libcpp-httplib-dev libcurl4-openssl-dev libexif-dev)
+          libopencv-dev libgloo-dev liblzf-dev libcpp-httplib-dev libcurl4-openssl-dev libssl-dev libexif-dev)
 # npm: the build installs the viewer's pinned three.js with `npm ci`. A Node.js from elsewhere
 # (NodeSource) brings its own npm; Debian's nodejs needs Debian's npm beside it.
 command -v npm >/dev/null || packages+=(nodejs npm)

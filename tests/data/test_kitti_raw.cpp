@@ -202,7 +202,7 @@ TEST(KittiRaw, BadInputsAreOneLineNamingTheFileAndTheProblem) {
   const fs::path root = test::fresh_process_dir("omnipoint_kitti_raw_bad");
   const Rig rig;
   const auto open = [&](const std::string& split = "",
-                        std::map<std::string, std::string> options = {}) {
+                        const std::map<std::string, std::string>& options = {}) {
     return open_dataset("kitti-raw", {root.string(), false, split, options});
   };
   expect_error([&] { open(); }, {"holds no KITTI raw frames"});

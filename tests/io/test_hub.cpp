@@ -47,7 +47,7 @@ struct Recorder : DownloadObserver {
                      std::to_string(resumed_at));
   }
   void progress(std::int64_t present, std::int64_t) override { last_present = present; }
-  void finished() override { events.push_back("finished"); }
+  void finished() override { events.emplace_back("finished"); }
   void note(const std::string& text) override { events.push_back("note " + text); }
 };
 

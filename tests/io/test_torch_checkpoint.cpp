@@ -54,14 +54,14 @@ PickleValue unpickle(const std::string& pickle) {
 
 void expect_checkpoint_error(const std::string& bytes, const std::vector<std::string>& parts) {
   std::vector<std::string> with_source = parts;
-  with_source.push_back("case.pt");
+  with_source.emplace_back("case.pt");
   expect_error<std::runtime_error>([&] { parse(bytes); }, with_source);
 }
 
 void expect_pickle_error(const std::string& pickle, const std::vector<std::string>& parts) {
   SCOPED_TRACE(parts.front());
   std::vector<std::string> with_source = parts;
-  with_source.push_back("case.pkl");
+  with_source.emplace_back("case.pkl");
   expect_error<std::runtime_error>([&] { unpickle(pickle); }, with_source);
 }
 

@@ -212,7 +212,7 @@ class HubServer {
 
   // The content (httplib answers a Range request with its part), closing the connection at
   // the drop fault's byte while it lasts.
-  void serve(httplib::Response& res, std::shared_ptr<const std::string> content,
+  void serve(httplib::Response& res, const std::shared_ptr<const std::string>& content,
              std::unique_lock<std::mutex>& lock) {
     std::int64_t drop = -1;
     if (drops_left_ > 0) {

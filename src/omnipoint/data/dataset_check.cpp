@@ -53,7 +53,7 @@ std::vector<int64_t> spread(int64_t size, int64_t count) {
 at::Tensor sheet_row(const Sample& sample, int64_t height) {
   const double aspect =
       static_cast<double>(sample.camera.width()) / static_cast<double>(sample.camera.height());
-  const int64_t width = std::max<int64_t>(1, static_cast<int64_t>(aspect * height + 0.5));
+  const int64_t width = std::max<int64_t>(1, std::llround(aspect * static_cast<double>(height)));
   const Sample small = resize_sample(sample, width, height);
   const at::Tensor distance = geometry::colorize_depth(small.distance, small.mask);
   return at::cat({small.image, distance.to(at::kFloat)}, 1);
@@ -64,6 +64,7 @@ at::Tensor stack_rows(const std::vector<at::Tensor>& rows) {
   int64_t width = 0;
   for (const at::Tensor& row : rows) width = std::max(width, row.size(1));
   std::vector<at::Tensor> padded;
+  padded.reserve(rows.size());
   for (const at::Tensor& row : rows)
     padded.push_back(at::constant_pad_nd(row, {0, 0, 0, width - row.size(1)}, 0));
   return at::cat(padded, 0);
@@ -97,7 +98,7 @@ DatasetCheckReport DatasetCheck::Run() const {
     } catch (const std::bad_alloc&) {
       throw;
     } catch (const std::exception& failure) {
-      report.failed.push_back(failure.what());
+      report.failed.emplace_back(failure.what());
       continue;
     }
     const Sample& sample = *read;

@@ -271,7 +271,7 @@ std::string length_prefix(std::uint64_t n) {
 }  // namespace
 
 SafetensorsFile parse_safetensors(const char* data, std::size_t size, const std::string& name,
-                                  std::shared_ptr<const void> keep_alive) {
+                                  const std::shared_ptr<const void>& keep_alive) {
   if (size < 8) fail(name, "shorter than the 8-byte header length");
   std::uint64_t header_size = 0;
   for (int i = 7; i >= 0; --i)

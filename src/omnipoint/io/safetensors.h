@@ -31,7 +31,7 @@ struct SafetensorsFile {
 // of the buffer instead and keep it alive.
 SafetensorsFile parse_safetensors(const char* data, std::size_t size,
                                   const std::string& name = "safetensors",
-                                  std::shared_ptr<const void> keep_alive = nullptr);
+                                  const std::shared_ptr<const void>& keep_alive = nullptr);
 
 // Reads a safetensors file (memory-mapped). Floating-point tensors are converted to
 // `convert_to` (a floating-point type); std::nullopt keeps every stored dtype. Integer and

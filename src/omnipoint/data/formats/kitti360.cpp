@@ -163,19 +163,10 @@ Sample read_kitti360_frame(const fs::path& root, const Frame& frame,
   return sample;
 }
 
-std::vector<fs::path> sorted_entries(const fs::path& folder) {
-  std::vector<fs::path> entries;
-  std::error_code error;
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder, error))
-    entries.push_back(entry.path());
-  std::sort(entries.begin(), entries.end());
-  return entries;
-}
-
 std::vector<Frame> all_frames(const fs::path& root, const std::string& camera) {
   std::vector<Frame> frames;
-  for (const fs::path& sequence : sorted_entries(root / "data_2d_raw"))
-    for (const fs::path& image : sorted_entries(sequence / camera / frame_folder(camera)))
+  for (const fs::path& sequence : formats::sorted_entries(root / "data_2d_raw"))
+    for (const fs::path& image : formats::sorted_entries(sequence / camera / frame_folder(camera)))
       if (image.extension() == ".png" && fs::is_regular_file(sweep_of(root, image)))
         frames.push_back({image.string(), ""});
   return frames;

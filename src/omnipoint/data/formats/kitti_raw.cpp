@@ -28,6 +28,7 @@
 #include "omnipoint/data/dataset_formats.h"
 #include "omnipoint/data/formats/kitti_text.h"
 #include "omnipoint/data/formats/lidar_labels.h"
+#include "omnipoint/data/formats/native.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/point_cloud.h"
@@ -80,23 +81,14 @@ Sample read_kitti_raw_frame(const std::string& image_name, PrincipalPoint readin
   return sample;
 }
 
-std::vector<fs::path> sorted_entries(const fs::path& folder) {
-  std::vector<fs::path> entries;
-  std::error_code error;
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder, error))
-    entries.push_back(entry.path());
-  std::sort(entries.begin(), entries.end());
-  return entries;
-}
-
 // Every frame of `camera` with its sweep: dates (folders with calib_cam_to_cam.txt), their
 // drives, the drives' frames, in name order.
 std::vector<std::string> all_frames(const fs::path& root, const std::string& camera) {
   std::vector<std::string> frames;
-  for (const fs::path& date : sorted_entries(root)) {
+  for (const fs::path& date : formats::sorted_entries(root)) {
     if (!fs::is_regular_file(date / kCamToCam)) continue;
-    for (const fs::path& drive : sorted_entries(date))
-      for (const fs::path& image : sorted_entries(drive / camera / "data"))
+    for (const fs::path& drive : formats::sorted_entries(date))
+      for (const fs::path& image : formats::sorted_entries(drive / camera / "data"))
         if (is_frame_image(image) && fs::is_regular_file(sweep_of(image)))
           frames.push_back(image.string());
   }

@@ -57,12 +57,8 @@ std::unique_ptr<Dataset> open_matterport360(const DatasetLocation& location) {
   listing.found = formats::find_files(root, "*/" + color + "/*.jpg");
   listing.sequence_of = scene_of;
   listing.looked_for = "*/" + color + "/*.jpg";
-  formats::ItemReader reader;
-  reader.read = [root](const std::string& item) { return read_panorama(root, item); };
-  reader.sources = [root](const std::string& item) {
-    return std::vector<std::string>{join(root, item), join(root, depth_of(item))};
-  };
-  return formats::native_dataset(location, std::move(listing), std::move(reader));
+  return formats::native_dataset(location, std::move(listing),
+                                 formats::image_and_depth_reader(root, depth_of, read_panorama));
 }
 
 }  // namespace

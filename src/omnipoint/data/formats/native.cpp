@@ -86,6 +86,26 @@ at::Tensor read_depth_png(const std::string& path, int bits, int channels, int64
   return io::read_image_values(path);
 }
 
+ItemReader image_and_depth_reader(
+    const std::string& root, const std::function<std::string(const std::string&)>& depth_of,
+    const std::function<Sample(const std::string&, const std::string&)>& read) {
+  ItemReader reader;
+  reader.read = [root, read](const std::string& item) { return read(root, item); };
+  reader.sources = [root, depth_of](const std::string& item) {
+    return std::vector<std::string>{join(root, item), join(root, depth_of(item))};
+  };
+  return reader;
+}
+
+std::vector<std::filesystem::path> sorted_entries(const std::filesystem::path& folder) {
+  std::vector<std::filesystem::path> entries;
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error))
+    entries.push_back(entry.path());
+  std::sort(entries.begin(), entries.end());
+  return entries;
+}
+
 at::Tensor read_rgb(const std::string& path, int64_t width, int64_t height) {
   at::Tensor image = io::read_image(path);
   if (width > 0) expect_size(image, width, height, path, "the camera");
@@ -210,7 +230,7 @@ double option_number(const DatasetLocation& location, const std::string& name, d
 
 std::string option_choice(const DatasetLocation& location, const std::string& name,
                           const std::vector<std::string>& values) {
-  const std::string value = option_or(location, name, values.front());
+  std::string value = option_or(location, name, values.front());
   if (std::find(values.begin(), values.end(), value) != values.end()) return value;
   std::string known;
   for (const std::string& v : values) known += (known.empty() ? "" : ", ") + v;

@@ -14,6 +14,7 @@
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -105,6 +106,13 @@ struct ItemListing {
 };
 std::unique_ptr<Dataset> native_dataset(const DatasetLocation& location, ItemListing listing,
                                         ItemReader reader);
+// The reader of items that are an image with one depth file beside it: `read(root, item)`
+// makes the sample; its sources are root/item and root/depth_of(item).
+ItemReader image_and_depth_reader(
+    const std::string& root, const std::function<std::string(const std::string&)>& depth_of,
+    const std::function<Sample(const std::string&, const std::string&)>& read);
+// The entries (files and folders) of `folder` in name order; none when it cannot be read.
+std::vector<std::filesystem::path> sorted_entries(const std::filesystem::path& folder);
 // Throws std::runtime_error "dataset \"ROOT\": not a folder" unless the root is a folder.
 void require_root(const DatasetLocation& location);
 

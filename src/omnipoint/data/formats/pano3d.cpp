@@ -69,12 +69,8 @@ std::unique_ptr<Dataset> open_pano3d(const DatasetLocation& location) {
   listing.found = formats::find_files(root, "*/*_emission_*.png");
   listing.sequence_of = scene_of;
   listing.looked_for = "<scene>/*_emission_*.png with *_depth_*.exr";
-  formats::ItemReader reader;
-  reader.read = [root](const std::string& item) { return read_panorama(root, item); };
-  reader.sources = [root](const std::string& item) {
-    return std::vector<std::string>{join(root, item), join(root, depth_of(item))};
-  };
-  return formats::native_dataset(location, std::move(listing), std::move(reader));
+  return formats::native_dataset(location, std::move(listing),
+                                 formats::image_and_depth_reader(root, depth_of, read_panorama));
 }
 
 }  // namespace

@@ -67,14 +67,11 @@ std::unique_ptr<Dataset> open_panosuncg(const DatasetLocation& location) {
   listing.normalise = item_of;
   listing.sequence_of = scene_of;
   listing.looked_for = "rotated/<scene>/<k>.txt/*_color.png";
-  formats::ItemReader reader;
-  reader.read = [scenes, scale](const std::string& item) {
-    return read_panorama(scenes, item, scale);
+  const auto read = [scale](const std::string& root, const std::string& item) {
+    return read_panorama(root, item, scale);
   };
-  reader.sources = [scenes](const std::string& item) {
-    return std::vector<std::string>{join(scenes, item), join(scenes, depth_of(item))};
-  };
-  return formats::native_dataset(in_scenes, std::move(listing), std::move(reader));
+  return formats::native_dataset(in_scenes, std::move(listing),
+                                 formats::image_and_depth_reader(scenes, depth_of, read));
 }
 
 }  // namespace

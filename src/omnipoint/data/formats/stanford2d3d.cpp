@@ -62,12 +62,8 @@ std::unique_ptr<Dataset> open_stanford2d3d(const DatasetLocation& location) {
   listing.normalise = item_of;
   listing.sequence_of = area_of;
   listing.looked_for = "area_*/pano/rgb/*_rgb.png";
-  formats::ItemReader reader;
-  reader.read = [root](const std::string& item) { return read_panorama(root, item); };
-  reader.sources = [root](const std::string& item) {
-    return std::vector<std::string>{join(root, item), join(root, depth_of(item))};
-  };
-  return formats::native_dataset(location, std::move(listing), std::move(reader));
+  return formats::native_dataset(location, std::move(listing),
+                                 formats::image_and_depth_reader(root, depth_of, read_panorama));
 }
 
 }  // namespace
