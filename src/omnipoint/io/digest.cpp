@@ -47,7 +47,7 @@ std::string MessageDigest::hex_digest() {
     throw std::runtime_error("OpenSSL: a digest could not be finished");
   static const char* const kHex = "0123456789abcdef";
   std::string text;
-  text.reserve(2 * size);
+  text.reserve(2 * static_cast<std::size_t>(size));
   for (unsigned int i = 0; i < size; ++i) {
     text += kHex[digest[i] >> 4];
     text += kHex[digest[i] & 15];
