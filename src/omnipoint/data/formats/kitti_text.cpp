@@ -244,23 +244,30 @@ KittiRawCamera parse_kitti_raw_camera(const std::string& text, const std::string
   return {projection.camera, at::matmul(offset, rect)};
 }
 
+// Calls `line(number, tokens)` for each line of a split list that holds a word (1-based numbers).
+template <typename Line>
+void for_each_list_line(const std::string& text, const Line& line) {
+  std::istringstream lines(text);
+  int64_t number = 0;
+  for (std::string row; std::getline(lines, row);) {
+    ++number;
+    std::istringstream words(row);
+    std::vector<std::string> tokens;
+    for (std::string token; words >> token;) tokens.push_back(token);
+    if (!tokens.empty()) line(number, tokens);
+  }
+}
+
 std::vector<Kitti360ListEntry> parse_kitti360_list(const std::string& text,
                                                    const std::string& name) {
   std::vector<Kitti360ListEntry> entries;
-  std::istringstream lines(text);
-  int64_t number = 0;
-  for (std::string line; std::getline(lines, line);) {
-    ++number;
-    std::istringstream words(line);
-    std::vector<std::string> tokens;
-    for (std::string token; words >> token;) tokens.push_back(token);
-    if (tokens.empty()) continue;
+  for_each_list_line(text, [&](int64_t number, const std::vector<std::string>& tokens) {
     double focal = 0;
     if (tokens.size() > 3 || (tokens.size() == 3 && !to_number(tokens[2], focal)))
       fail(name, "line " + std::to_string(number) +
                      ": expected \"IMAGE [DEPTH [FOCAL]]\" (DAC's list form)");
     entries.push_back({number, tokens[0], tokens.size() > 1 ? tokens[1] : ""});
-  }
+  });
   if (entries.empty()) fail(name, "the list names no frame");
   return entries;
 }
@@ -268,14 +275,7 @@ std::vector<Kitti360ListEntry> parse_kitti360_list(const std::string& text,
 std::vector<KittiRawListEntry> parse_kitti_raw_list(const std::string& text,
                                                     const std::string& name) {
   std::vector<KittiRawListEntry> entries;
-  std::istringstream lines(text);
-  int64_t number = 0;
-  for (std::string line; std::getline(lines, line);) {
-    ++number;
-    std::istringstream words(line);
-    std::vector<std::string> tokens;
-    for (std::string token; words >> token;) tokens.push_back(token);
-    if (tokens.empty()) continue;
+  for_each_list_line(text, [&](int64_t number, const std::vector<std::string>& tokens) {
     const auto bad = [&](const std::string& why) {
       fail(name, "line " + std::to_string(number) + ": " + why +
                      " (expected \"DATE/DRIVE FRAME [l|r]\")");
@@ -294,7 +294,7 @@ std::vector<KittiRawListEntry> parse_kitti_raw_list(const std::string& text,
       entry.camera = tokens[2] == "l" ? "image_02" : "image_03";
     }
     entries.push_back(entry);
-  }
+  });
   if (entries.empty()) fail(name, "the list names no frame");
   return entries;
 }
