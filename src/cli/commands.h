@@ -17,6 +17,7 @@ void add_metrics_command(CLI::App& app);
 void add_models_command(CLI::App& app);
 void add_predict_command(CLI::App& app);
 void add_reproject_command(CLI::App& app);
+void add_rig_command(CLI::App& app);
 void add_synth_command(CLI::App& app);
 void add_train_command(CLI::App& app);
 void add_view_command(CLI::App& app);

@@ -113,6 +113,7 @@ int main(int argc, char** argv) try {
   omnipoint::cli::add_models_command(app);
   omnipoint::cli::add_predict_command(app);
   omnipoint::cli::add_reproject_command(app);
+  omnipoint::cli::add_rig_command(app);
   omnipoint::cli::add_synth_command(app);
   omnipoint::cli::add_train_command(app);
   omnipoint::cli::add_view_command(app);

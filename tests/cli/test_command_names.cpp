@@ -28,8 +28,8 @@ void expect_refusal(const std::string& arguments, const std::string& line) {
 }
 
 const std::string kCommands =
-    "camera, data, eval, forward, init-model, metrics, models, predict, reproject, synth, train, "
-    "view";
+    "camera, data, eval, forward, init-model, metrics, models, predict, reproject, rig, synth, "
+    "train, view";
 
 TEST(CommandNames, AMistypedCommandNamesItselfAndTheCommandMeant) {
   expect_refusal("predcit x.jpg", "unknown command 'predcit' (did you mean 'predict'?)");

@@ -161,4 +161,43 @@ Rig read_rig(const std::string& path) {
   return parse_rig(read_file(path), path, fs::path(path).parent_path().string());
 }
 
+namespace {
+
+// [[r11, r12, r13, t1], [...], [...]]: the top 3 rows of a (4, 4), doubles as JSON prints
+// them (shortest text that reads back exactly).
+std::string transform_text(const at::Tensor& matrix) {
+  const at::Tensor values = matrix.to(at::kDouble).contiguous();
+  if (values.dim() != 2 || values.size(0) != 4 || values.size(1) != 4)
+    throw std::invalid_argument("format_rig: a transform is not (4, 4)");
+  const double* entries = values.data_ptr<double>();
+  std::string text = "[";
+  for (int r = 0; r < 3; ++r)
+    text +=
+        (r ? ", " : "") + json(std::vector<double>(entries + 4 * r, entries + 4 * r + 4)).dump();
+  return text + "]";
+}
+
+}  // namespace
+
+std::string format_rig(const Rig& rig) {
+  std::string text = "{\"frame\": " + json(rig.frame).dump() + ",\n \"cameras\": [";
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const RigCamera& camera = rig.cameras[i];
+    text += std::string(i ? "," : "") + "\n  {\"name\": " + json(camera.name).dump() +
+            ", \"camera\": " + json(camera.camera.to_spec()).dump() +
+            ",\n   \"body_from_camera\": " + transform_text(camera.body_from_camera) + "}";
+  }
+  text += "]";
+  if (rig.lidar)
+    text += ",\n \"lidar\": {\"format\": " + json(rig.lidar->format).dump() +
+            ", \"body_from_lidar\": " + transform_text(rig.lidar->body_from_lidar) + "}";
+  return text + "}\n";
+}
+
+void write_rig(const std::string& path, const Rig& rig) {
+  const std::string text = format_rig(rig);
+  parse_rig(text, path, fs::path(path).parent_path().string());
+  write_file_atomically(path, [&](std::ostream& out) { out << text; });
+}
+
 }  // namespace omnipoint::io

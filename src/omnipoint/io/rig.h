@@ -53,4 +53,12 @@ Rig parse_rig(const std::string& text, const std::string& source, const std::str
 // The same from a file (camera paths relative to its folder); unreadable -> std::runtime_error.
 Rig read_rig(const std::string& path);
 
+// The rig file's text of `rig`: the keys above, each camera as its spec (to_spec), transforms
+// as 3 rows of 4 numbers printed to round-trip precision, so parse_rig reads back exactly
+// what was given.
+std::string format_rig(const Rig& rig);
+// Writes format_rig(rig) to `path` atomically, after reading it back: a rig the reader would
+// refuse (a rotation off orthonormal, a bad name) -> its std::invalid_argument, nothing written.
+void write_rig(const std::string& path, const Rig& rig);
+
 }  // namespace omnipoint::io
