@@ -21,9 +21,9 @@ void add_import_command(CLI::App& parent) {
   auto out = std::make_shared<std::string>();
   auto* kitti360 = command->add_option("--kitti360", options->kitti360_root,
                                        "A KITTI-360 root (its calibration/ folder)");
-  auto* kitti_raw = command->add_option(
-      "--kitti-raw", options->kitti_raw_date,
-      "A KITTI raw date folder (calib_cam_to_cam.txt, calib_velo_to_cam.txt)");
+  auto* kitti_raw =
+      command->add_option("--kitti-raw", options->kitti_raw_date,
+                          "A KITTI raw date folder (calib_cam_to_cam.txt, calib_velo_to_cam.txt)");
   kitti360->excludes(kitti_raw);
   command->add_option("--out", *out, "The rig file to write")->required();
   command->add_option("--camera", options->cameras,
@@ -45,7 +45,8 @@ void add_import_command(CLI::App& parent) {
 }  // namespace
 
 void add_rig_command(CLI::App& app) {
-  auto* rig = app.add_subcommand("rig", "Rig files: a vehicle's cameras and LiDAR with their poses");
+  auto* rig =
+      app.add_subcommand("rig", "Rig files: a vehicle's cameras and LiDAR with their poses");
   rig->require_subcommand(1);
   add_import_command(*rig);
 }

@@ -35,11 +35,11 @@ struct KittiRawCalibration {
                                              {50, 38, 39, 39.5, 25.125, 18.75},
                                              {50, 38, 38.5, 40, 24.5, 19.25}};
   at::Tensor rect = rotation(0.6, 0.8, 0.0, 0.012);  // R_rect_00
-  at::Tensor cam0_from_velo =
-      rigid(at::matmul(rotation(0.0, 0.0, 1.0, 0.02),
-                       at::tensor({0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0}, at::kDouble)
-                           .view({3, 3})),
-            at::tensor({-0.004, -0.076, -0.272}, at::kDouble));
+  at::Tensor cam0_from_velo = rigid(
+      at::matmul(
+          rotation(0.0, 0.0, 1.0, 0.02),
+          at::tensor({0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0}, at::kDouble).view({3, 3})),
+      at::tensor({-0.004, -0.076, -0.272}, at::kDouble));
   at::Tensor offset(int camera) const {  // t_X: image_02 left of image_00, image_03 right
     const double tx[] = {0.0, -0.54, 0.06, -0.48};
     return at::tensor({tx[camera], 0.002 * camera, 0.003}, at::kDouble);
@@ -56,8 +56,7 @@ struct KittiRawCalibration {
     for (int camera = 0; camera < 4; ++camera) {
       const std::string id = "0" + std::to_string(camera);
       const KittiIntrinsics& in = intrinsics[static_cast<size_t>(camera)];
-      const at::Tensor p =
-          at::cat({in.k(), at::matmul(in.k(), offset(camera)).view({3, 1})}, 1);
+      const at::Tensor p = at::cat({in.k(), at::matmul(in.k(), offset(camera)).view({3, 1})}, 1);
       const std::vector<std::pair<std::string, std::string>> lines = {
           {"S_" + id, "1.392000e+03 5.120000e+02"},  // the unrectified sensor, unused
           {"K_" + id, kitti_numbers(in.k() * 1.1)},
@@ -157,8 +156,8 @@ struct Kitti360Calibration {
     write_text(calibration / "calib_cam_to_pose.txt", cam_to_pose_text());
     // image_00 (unrectified) -> Velodyne = velo_from_body · body_from_cam00.
     write_text(calibration / "calib_cam_to_velo.txt",
-               kitti_numbers(at::matmul(at::inverse(body_from_velo), pose_from_camera(0))
-                                 .narrow(0, 0, 3)) +
+               kitti_numbers(
+                   at::matmul(at::inverse(body_from_velo), pose_from_camera(0)).narrow(0, 0, 3)) +
                    "\n");
     write_text(calibration / "perspective.txt", perspective_text());
     for (int camera : {2, 3})

@@ -49,9 +49,8 @@ fs::path write_kitti_raw(const std::string& name, int frames) {
     const at::Tensor pixels =
         at::tensor({3.25, 4.75, 20.5, 10.25, 40.75, 30.5, 11.5, 25.5}, at::kDouble).view({4, 2});
     const at::Tensor points =
-        camera.unproject(pixels).rays * at::tensor({4.5, 7.25, 12.0, 5.0}, at::kDouble)
-                                            .add(frame)
-                                            .view({4, 1});
+        camera.unproject(pixels).rays *
+        at::tensor({4.5, 7.25, 12.0, 5.0}, at::kDouble).add(frame).view({4, 1});
     test::write_sweep(sweep_path(root, frame),
                       test::transformed(calibration.velo_from_camera(2), points));
     for (int c : {2, 3}) {
@@ -135,8 +134,7 @@ TEST(DatasetConvert, KittiRawFramesReopenAsTheSameSamples) {
   const fs::path root = write_kitti_raw("omnipoint_convert_kitti_raw", 3);
   const fs::path out = root.parent_path() / (root.filename().string() + "_out");
   fs::remove_all(out);
-  const DatasetConvertReport report =
-      DatasetConvert(options_for("kitti-raw", root, out)).Run();
+  const DatasetConvertReport report = DatasetConvert(options_for("kitti-raw", root, out)).Run();
   EXPECT_EQ(report.items, 3);
   EXPECT_EQ(report.converted, 3);
   EXPECT_EQ(report.kept, 0);
@@ -167,8 +165,9 @@ TEST(DatasetConvert, KittiRawFramesReopenAsTheSameSamples) {
   right.camera = "image_03";
   fs::remove_all(right.output_path);
   EXPECT_EQ(DatasetConvert(right).Run().converted, 3);
-  expect_same_samples(*open_dataset("kitti-raw", {root.string(), false, "", {{"camera", "image_03"}}}),
-                      {0, 1, 2}, right.output_path);
+  expect_same_samples(
+      *open_dataset("kitti-raw", {root.string(), false, "", {{"camera", "image_03"}}}), {0, 1, 2},
+      right.output_path);
 }
 
 TEST(DatasetConvert, Stanford2d3dPanoramasAndSequence) {
@@ -239,9 +238,7 @@ TEST(DatasetConvert, ABadItemIsSkippedAndNamed) {
   struct Warnings : DatasetConvertObserver {
     std::vector<std::string> lines;
     int64_t done = 0;
-    void on_skipped(const ConvertedItem&, const std::string& why) override {
-      lines.push_back(why);
-    }
+    void on_skipped(const ConvertedItem&, const std::string& why) override { lines.push_back(why); }
     void on_item_done(int64_t) override { ++done; }
   } warnings;
   const DatasetConvertReport report =
@@ -250,8 +247,7 @@ TEST(DatasetConvert, ABadItemIsSkippedAndNamed) {
   ASSERT_EQ(report.skipped.size(), 1u);
   EXPECT_EQ(warnings.lines, report.skipped);
   EXPECT_EQ(warnings.done, 3);
-  EXPECT_NE(report.skipped[0].find(frame_stem(1) + ".bin"), std::string::npos)
-      << report.skipped[0];
+  EXPECT_NE(report.skipped[0].find(frame_stem(1) + ".bin"), std::string::npos) << report.skipped[0];
   EXPECT_EQ(report.skipped[0].find('\n'), std::string::npos) << report.skipped[0];
   expect_same_samples(*open_dataset("kitti-raw", {root.string()}), {0, 2}, out);
   EXPECT_EQ(manifest_of(out).size(), 2u);
@@ -293,10 +289,13 @@ TEST(DatasetConvert, RefusalsNameTheProblem) {
   // An output under a file cannot be created.
   test::write_text(scratch / "file", "x");
   expect_error(
-      [&] { DatasetConvert(options_for("stanford2d3d", stanford, scratch / "file" / "out")).Run(); },
+      [&] {
+        DatasetConvert(options_for("stanford2d3d", stanford, scratch / "file" / "out")).Run();
+      },
       {"cannot create the output folder", "file"});
-  expect_error([&] { DatasetConvert(options_for("stanford2d3d", stanford, scratch / "file")).Run(); },
-               {"not a folder"});
+  expect_error(
+      [&] { DatasetConvert(options_for("stanford2d3d", stanford, scratch / "file")).Run(); },
+      {"not a folder"});
 }
 
 TEST(DatasetConvert, FolderNamesFromItemNames) {
@@ -320,10 +319,9 @@ TEST(DataConvertCommand, SummaryWarningsAndErrors) {
   const fs::path out = root.parent_path() / (root.filename().string() + "_out");
   fs::remove_all(out);
   const fs::path scratch = root.parent_path() / (root.filename().string() + "_run");
-  test::CliRun run = test::run_omnipoint(
-      "data convert --format kitti-raw --root " + root.string() + " --out " + out.string() +
-          " --camera image_02",
-      scratch);
+  test::CliRun run = test::run_omnipoint("data convert --format kitti-raw --root " + root.string() +
+                                             " --out " + out.string() + " --camera image_02",
+                                         scratch);
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_EQ(run.out, "converted 1, kept 0, skipped 1 of 2 items into " + out.string() + " (" +
                          (out / "manifest.jsonl").string() + ")\n");
@@ -331,16 +329,16 @@ TEST(DataConvertCommand, SummaryWarningsAndErrors) {
   EXPECT_NE(run.err.find("skipped " + root.string()), std::string::npos) << run.err;
   EXPECT_NE(run.err.find(frame_stem(1) + ".bin"), std::string::npos) << run.err;
 
-  run = test::run_omnipoint("data convert --format kitti-raw --root " + root.string() +
-                                " --out " + out.string(),
-                            scratch);
+  run = test::run_omnipoint(
+      "data convert --format kitti-raw --root " + root.string() + " --out " + out.string(),
+      scratch);
   EXPECT_NE(run.status, 0);
   EXPECT_EQ(run.err.find('\n'), run.err.size() - 1) << run.err;
   EXPECT_NE(run.err.find("--resume"), std::string::npos) << run.err;
 
-  run = test::run_omnipoint("data convert --format nope --root " + root.string() + " --out " +
-                                out.string() + "_nope",
-                            scratch);
+  run = test::run_omnipoint(
+      "data convert --format nope --root " + root.string() + " --out " + out.string() + "_nope",
+      scratch);
   EXPECT_NE(run.status, 0);
   EXPECT_EQ(run.err.rfind("omnipoint: error: dataset format \"nope\": unknown", 0), 0u) << run.err;
   EXPECT_FALSE(fs::exists(out.string() + "_nope"));

@@ -64,9 +64,8 @@ std::string sample_folder_name(const std::string& item, const std::string& root)
     if (text.empty() || text == "/" || text == ".") continue;
     if (!name.empty()) name += '-';
     for (const char c : text)
-      name += std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'
-                  ? c
-                  : '_';
+      name +=
+          std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' ? c : '_';
   }
   if (name.empty()) name = "item";
   if (name.size() > kMaxFolderName) name = name.substr(name.size() - kMaxFolderName);
@@ -202,7 +201,8 @@ DatasetConvertReport DatasetConvert::Run() const {
                              (report.skipped.empty() ? "none" : report.skipped.front()) + ")");
   }
   report.manifest_path = (out / kManifest).string();
-  io::write_file_atomically(report.manifest_path, [&](std::ostream& stream) { stream << manifest; });
+  io::write_file_atomically(report.manifest_path,
+                            [&](std::ostream& stream) { stream << manifest; });
   return report;
 }
 

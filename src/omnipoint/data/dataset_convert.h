@@ -44,9 +44,9 @@ struct ConvertedItem {
 };
 
 struct DatasetConvertReport {
-  int64_t items = 0;      // chosen by every/limit
-  int64_t converted = 0;  // written in this run
-  int64_t kept = 0;       // existing folders kept (resume)
+  int64_t items = 0;                 // chosen by every/limit
+  int64_t converted = 0;             // written in this run
+  int64_t kept = 0;                  // existing folders kept (resume)
   std::vector<std::string> skipped;  // "ITEM: why", one per item that did not read
   std::string manifest_path;         // OUT/manifest.jsonl
 };

@@ -57,8 +57,9 @@ io::Rig import_kitti360(const fs::path& root, const std::vector<std::string>& ca
     const Kitti360Perspective perspective = parse_kitti360_perspective(
         io::read_file(perspective_file), perspective_file, name, reading);
     // The images are rectified: pose <- unrectified camera <- rectified camera (R_rect⁻¹).
-    rig.cameras.push_back({name, perspective.camera,
-                           at::matmul(pose_from.at(name), rigid_inverse(perspective.rect_from_camera))});
+    rig.cameras.push_back(
+        {name, perspective.camera,
+         at::matmul(pose_from.at(name), rigid_inverse(perspective.rect_from_camera))});
   }
   rig.lidar = kitti_lidar(at::matmul(pose_from.at("image_00"), rigid_inverse(velo_from_cam0)));
   return rig;
