@@ -8,9 +8,11 @@ set -euo pipefail
 # libcurl4-openssl-dev, libssl-dev: downloads of published models and their checksums
 # (--model hf:...).
 # libexif-dev: a photo's camera and orientation from its EXIF data.
+# libhdf5-dev: Hypersim's HDF5 images (the C API).
 packages=(g++ cmake ninja-build ccache pkg-config
           libtorch-dev libopenblas0-pthread nlohmann-json3-dev libcli11-dev
-          libopencv-dev libgloo-dev liblzf-dev libcpp-httplib-dev libcurl4-openssl-dev libssl-dev libexif-dev)
+          libopencv-dev libgloo-dev liblzf-dev libcpp-httplib-dev libcurl4-openssl-dev libssl-dev libexif-dev
+          libhdf5-dev)
 # npm: the build installs the viewer's pinned three.js with `npm ci`. A Node.js from elsewhere
 # (NodeSource) brings its own npm; Debian's nodejs needs Debian's npm beside it.
 command -v npm >/dev/null || packages+=(nodejs npm)

@@ -116,16 +116,17 @@ class ConstantDataset : public Dataset {
 
 TEST(Dataset, FormatsAreRegisteredByName) {
   const std::vector<std::string> builtin = {
-      "folders", "kitti-raw", "kitti360", "matterport360", "moge",
-      "pano3d",  "panosuncg", "rig-log",  "stanford2d3d",  "structured3d"};
+      "folders", "hypersim",  "kitti-raw", "kitti360",     "matterport360", "moge",
+      "pano3d",  "panosuncg", "rig-log",   "stanford2d3d", "structured3d",  "vkitti2"};
   EXPECT_EQ(dataset_formats(), builtin);
   try {
     open_dataset("tar", {"x"});
     FAIL() << "an unknown format was opened";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
-              "dataset format \"tar\": unknown (known: folders, kitti-raw, kitti360, "
-              "matterport360, moge, pano3d, panosuncg, rig-log, stanford2d3d, structured3d)");
+              "dataset format \"tar\": unknown (known: folders, hypersim, kitti-raw, kitti360, "
+              "matterport360, moge, pano3d, panosuncg, rig-log, stanford2d3d, structured3d, "
+              "vkitti2)");
   }
   register_dataset_format("constant", [](const DatasetLocation& location) {
     return std::make_unique<ConstantDataset>(location.path);

@@ -51,6 +51,16 @@ def f32(*values):
     return struct.pack("<%df" % len(values), *values)
 
 
+# Hypersim's metadata_camera_parameters.csv (contrib/mikeroberts3000): the standard camera and a
+# tilt-shift one, with a few of its other columns.
+HYPERSIM_CAMERAS = (b"scene_name,settings_output_img_height,settings_output_img_width,settings_units_info_meters_scale,"
+                    b"use_camera_physical,M_cam_from_uv_00,M_cam_from_uv_01,M_cam_from_uv_02,M_cam_from_uv_10,"
+                    b"M_cam_from_uv_11,M_cam_from_uv_12,M_cam_from_uv_20,M_cam_from_uv_21,M_cam_from_uv_22\n"
+                    b"ai_001_001,768.0,1024.0,0.02539999969303608,False,0.5773502886169104,0.0,0.0,0.0,"
+                    b"0.4330127164626828,0.0,0.0,0.0,-1.0\n"
+                    b"ai_038_009,768.0,1024.0,0.02539999969303608,False,0.6088745353317421,0.0,-0.04870996173778685,"
+                    b"0.0,0.42281668362380326,-0.11275110051191127,-0.0,-0.17251279495462457,-1.0546015951381162\n")
+
 def png_chunk(kind, data):
     return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
@@ -387,6 +397,14 @@ SEEDS = {
     "native_text/dac_m3d.txt": b"2t7WUuJeko7/0_spherical_1_emission_center_0.png "
                                b"2t7WUuJeko7/0_spherical_1_depth_center_0.exr 162.97\n",
     "native_text/camera_pose.txt": b"-1083.7 2450.2 1400.0 0.98 -0.17 0.0 0.0 0.0 1.0 0.6 0.48 1\n",
+    "native_text/intrinsic.txt": b"frame cameraID K[0,0] K[1,1] K[0,2] K[1,2]\n0 0 725.0087 725.0087 620.5 187\n"
+                                 b"0 1 725.0087 725.0087 620.5 187\n1 0 725.0087 725.0087 620.5 187\n",
+    "native_text/metadata_camera_parameters.csv": HYPERSIM_CAMERAS,
+    "native_text/metadata_images_split_scene_v1.csv": b"scene_name,camera_name,frame_id,included_in_public_release,"
+                                                       b"exclude_reason,split_partition_name\n"
+                                                       b"ai_001_001,cam_00,0,True,,train\n"
+                                                       b"ai_001_001,cam_00,1,False,corrupt,train\n"
+                                                       b"ai_038_009,cam_00,0,True,,val\n",
     "camera/line.txt": b"PINHOLE 640 480 500 500 320 240\n",
     "camera/cameras.txt": b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
                           b"1 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n\n"
@@ -579,6 +597,20 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "native_text/camera_pose_short.txt": (b"0 0 0 0 1 0 0 0 1 0.6 0.48\n", "expected one line of 12 numbers"),
     "native_text/camera_pose_fov.txt": (b"0 0 0 0 1 0 0 0 1 1.6 0.48 1\n", "half-angles in (0, pi/2)"),
     "native_text/camera_pose_word.txt": (b"0 0 0 0 1 0 0 0 1 0.6 x 1\n", "\"x\" is not a number"),
+    "native_text/intrinsic_header.txt": (b"0 0 725 725 620.5 187\n", "expected the header line"),
+    "native_text/intrinsic_fields.txt": (b"frame cameraID K[0,0] K[1,1] K[0,2] K[1,2]\n0 0 725 725 620.5\n",
+                                         ":2: expected 6 fields"),
+    "native_text/intrinsic_twice.txt": (b"frame cameraID K[0,0] K[1,1] K[0,2] K[1,2]\n0 1 7 7 6 1\n0 1 7 7 6 1\n",
+                                        ":3: frame 0 of camera 1 is given twice"),
+    "native_text/metadata_camera_parameters_column.csv": (HYPERSIM_CAMERAS.replace(b"M_cam_from_uv_21", b"M_cam_from_uv_2x"),
+                                                          ":1: no column M_cam_from_uv_21"),
+    "native_text/metadata_camera_parameters_fields.csv": (HYPERSIM_CAMERAS.replace(b",-1.0546015951381162", b""),
+                                                          ":3: expected 14 fields (as the header), got 13"),
+    "native_text/metadata_camera_parameters_size.csv": (HYPERSIM_CAMERAS.replace(b"768.0", b"-768.0", 1),
+                                                        "settings_output_img_height \"-768.0\" is not a non-negative integer"),
+    "native_text/metadata_images_split_partition.csv": (b"scene_name,camera_name,frame_id,included_in_public_release,"
+                                                        b"split_partition_name\nai_001_001,cam_00,0,True,holdout\n",
+                                                        "split_partition_name \"holdout\" is not train, val or test"),
     "camera/unknown_model.txt": (b"1 NOPE 640 480 1 2 3\n", "unknown camera model 'NOPE'"),
     "camera/bad_json.json": (b'{"model": "PINHOLE", "width": 64', "not valid JSON"),
     "camera/comments_only.txt": (b"# nothing here\n\n", "contains no camera"),

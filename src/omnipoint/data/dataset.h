@@ -8,6 +8,7 @@
 //              being written, left out)
 //   "moge"     a MoGe evaluation benchmark root (moge_format.h; its .index.txt order)
 //   "kitti-raw", "kitti360", "rig-log"   driving logs with sparse LiDAR labels (formats/)
+//   "hypersim", "vkitti2"                rendered training sets (formats/)
 // The synthetic scene engine is a dataset too (synth/synth_dataset.h), made in memory.
 #include <cstdint>
 #include <functional>

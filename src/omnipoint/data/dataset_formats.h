@@ -23,5 +23,8 @@ DatasetFormat matterport360_format();
 DatasetFormat pano3d_format();
 DatasetFormat panosuncg_format();
 DatasetFormat structured3d_format();
+// Rendered training sets (formats/<name>.cpp).
+DatasetFormat hypersim_format();
+DatasetFormat vkitti2_format();
 
 }  // namespace omnipoint::data
