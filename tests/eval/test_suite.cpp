@@ -103,7 +103,8 @@ TEST(SuiteFile, MalformedGivesOneLineNamingTheKey) {
       {one_set(kSet + R"(, "modes": ["none"], "group": 1)"), "sets[0].group"},
       {one_set(R"("name": "A", "group": "wide", "format": "moge", "root": "a", "modes": ["none"])"),
        "suite.json: sets[0].group: expected \"S.FoV\", \"L.FoV\" or \"360°\""},
-      {one_set(R"("name": "A", "group": "S.FoV", "format": "nope", "root": "a", "modes": ["none"])"),
+      {one_set(
+           R"("name": "A", "group": "S.FoV", "format": "nope", "root": "a", "modes": ["none"])"),
        "suite.json: sets[0].format: \"nope\" is no dataset format"},
       {one_set(kSet + R"(, "modes": ["none"], "options": {"camera": "x"})"),
        "suite.json: sets[0].options.camera: format \"stanford2d3d\" has no such option"},
@@ -118,9 +119,11 @@ TEST(SuiteFile, MalformedGivesOneLineNamingTheKey) {
        "suite.json: sets[0].metric: expected true or false"},
       {one_set(kSet + R"(, "modes": ["none"], "colour": "red")"),
        "suite.json: sets[0].colour: unknown key"},
-      {one_set(R"("name": "a/b", "group": "S.FoV", "format": "moge", "root": "a", "modes": ["none"])"),
+      {one_set(
+           R"("name": "a/b", "group": "S.FoV", "format": "moge", "root": "a", "modes": ["none"])"),
        "suite.json: sets[0].name: \"a/b\" must not be a path"},
-      {one_set(R"("name": "A", "group": "S.FoV", "format": "moge", "root": "/a", "modes": ["none"])"),
+      {one_set(
+           R"("name": "A", "group": "S.FoV", "format": "moge", "root": "/a", "modes": ["none"])"),
        "suite.json: sets[0].root: must be relative to the data root"},
       {R"({"name": "s", "sets": [{)" + kSet + R"(, "modes": ["none"]}, {)" + kSet +
            R"(, "modes": ["none"]}]})",
@@ -131,8 +134,8 @@ TEST(SuiteFile, MalformedGivesOneLineNamingTheKey) {
     EXPECT_NE(error.find(expected), std::string::npos) << text << "\n -> " << error;
     EXPECT_EQ(error.find('\n'), std::string::npos) << error;
   }
-  omnipoint::test::expect_error<std::invalid_argument>([] { read_suite("/no/such/suite.json"); },
-                                {"suite /no/such/suite.json: cannot be read"});
+  omnipoint::test::expect_error<std::invalid_argument>(
+      [] { read_suite("/no/such/suite.json"); }, {"suite /no/such/suite.json: cannot be read"});
 }
 
 // The paper's three groups: the eight MoGe sets, KITTI-360 with DAC's list, Stanford2D3D and
@@ -152,8 +155,8 @@ TEST(PaperSuite, HoldsThePapersGroups) {
   EXPECT_EQ(groups["S.FoV"], (std::vector<std::string>{"NYUv2", "KITTI", "ETH3D", "iBims-1", "GSO",
                                                        "Sintel", "DIODE", "HAMMER"}));
   EXPECT_EQ(groups["L.FoV"], (std::vector<std::string>{"KITTI-360"}));
-  EXPECT_EQ(groups["360°"], (std::vector<std::string>{"Stanford2D3D", "PanoSUNCG",
-                                                      "Stanford2D3D-UniFuse-fold1"}));
+  EXPECT_EQ(groups["360°"],
+            (std::vector<std::string>{"Stanford2D3D", "PanoSUNCG", "Stanford2D3D-UniFuse-fold1"}));
   for (const auto& set : suite.sets) {
     EXPECT_EQ(set.group_mean, set.name != "Stanford2D3D-UniFuse-fold1") << set.name;
     // MoGe's configs give GSO and Sintel no depth unit: their depth is not metric.
@@ -341,8 +344,8 @@ class SuiteRun : public ::testing::Test {
   }
   static std::string suite() { return (*dir_ / "suite" / "suite.json").string(); }
   static std::string data() { return (*dir_ / "data").string(); }
-  static omnipoint::eval::EvalJobResult run_job(const std::string& baseline,
-                                                const std::string& out, bool sparse = false) {
+  static omnipoint::eval::EvalJobResult run_job(const std::string& baseline, const std::string& out,
+                                                bool sparse = false) {
     omnipoint::eval::EvalJobOptions options;
     options.baseline = baseline;
     options.suite = suite();
@@ -364,8 +367,10 @@ TEST_F(SuiteRun, OracleScoresEveryPresentSetPerfectly) {
   ASSERT_EQ(suite.missing.size(), 1u);
   EXPECT_EQ(suite.missing[0].name, "ETH3D");
   EXPECT_EQ(suite.modes, (std::vector<std::string>{"none", "+D"}));
-  const std::map<std::string, int64_t> samples{{"NYUv2", 1},        {"KITTI-360", 1},
-                                               {"Stanford2D3D", 3}, {"PanoSUNCG", 1},
+  const std::map<std::string, int64_t> samples{{"NYUv2", 1},
+                                               {"KITTI-360", 1},
+                                               {"Stanford2D3D", 3},
+                                               {"PanoSUNCG", 1},
                                                {"Stanford2D3D-UniFuse", 1}};
   for (const auto& set : suite.sets) {
     EXPECT_EQ(set.summary.samples_evaluated, samples.at(set.set.name)) << set.set.name;
@@ -389,10 +394,10 @@ TEST_F(SuiteRun, OracleScoresEveryPresentSetPerfectly) {
 // mean of its sets (not of its samples), the UniFuse set outside it.
 TEST_F(SuiteRun, ConstantBaselineGivesClosedFormGroupMeans) {
   const fs::path out = *dir_ / "constant";
-  const omnipoint::test::CliRun run = omnipoint::test::run_omnipoint(
-      "eval --baseline constant --suite " + suite() + " --root " + data() + " --out " +
-          out.string(),
-      *dir_ / "cli");
+  const omnipoint::test::CliRun run =
+      omnipoint::test::run_omnipoint("eval --baseline constant --suite " + suite() + " --root " +
+                                         data() + " --out " + out.string(),
+                                     *dir_ / "cli");
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("eval: warning: suite set ETH3D not found (" +
                          (fs::path(data()) / "ETH3D").string() + ")\n"),
@@ -460,19 +465,19 @@ TEST_F(SuiteRun, ConstantBaselineGivesClosedFormGroupMeans) {
   std::map<std::string, int> per_set;
   for (std::string line; std::getline(records, line);) ++per_set[json::parse(line)["dataset"]];
   EXPECT_EQ(per_set, (std::map<std::string, int>{{"NYUv2", 1},
-                                                  {"KITTI-360", 1},
-                                                  {"Stanford2D3D", 3},
-                                                  {"PanoSUNCG", 1},
-                                                  {"Stanford2D3D-UniFuse", 1}}));
+                                                 {"KITTI-360", 1},
+                                                 {"Stanford2D3D", 3},
+                                                 {"PanoSUNCG", 1},
+                                                 {"Stanford2D3D-UniFuse", 1}}));
 }
 
 // A native format as --data: the same Stanford2D3D stand-in through --format and --split.
 TEST_F(SuiteRun, NativeFormatAsData) {
   const fs::path out = *dir_ / "native";
   const omnipoint::test::CliRun run = omnipoint::test::run_omnipoint(
-      "eval --baseline constant --format stanford2d3d --data " + data() +
-          "/Stanford2D3D --split " + (*dir_ / "suite/lists/stanford_da2.txt").string() +
-          " --option sequence=area_5a --out " + out.string(),
+      "eval --baseline constant --format stanford2d3d --data " + data() + "/Stanford2D3D --split " +
+          (*dir_ / "suite/lists/stanford_da2.txt").string() + " --option sequence=area_5a --out " +
+          out.string(),
       *dir_ / "cli");
   ASSERT_EQ(run.status, 0) << run.err;
   const json summary = json::parse(omnipoint::test::slurp(out / "summary.json"));

@@ -71,10 +71,10 @@ std::string entry_name(const Reader& reader, const json& columns, const std::str
 SuiteSet parse_set(const Reader& reader, const json& object, const std::string& where,
                    const std::string& folder) {
   if (!object.is_object()) reader.fail(where.substr(0, where.size() - 1), "expected an object");
-  reader.only(object,
-              {"name", "group", "format", "root", "split", "options", "metric", "modes",
-               "group_mean"},
-              where);
+  reader.only(
+      object,
+      {"name", "group", "format", "root", "split", "options", "metric", "modes", "group_mean"},
+      where);
   SuiteSet set;
   set.name = reader.text(object, "name", where);
   if (set.name.find_first_of("/\\") != std::string::npos || set.name == "." || set.name == "..")
@@ -93,8 +93,8 @@ SuiteSet parse_set(const Reader& reader, const json& object, const std::string& 
   if (fs::path(set.root).is_absolute())
     reader.fail(where + "root", "must be relative to the data root");
   set.split = reader.text(object, "split", where, false);
-  const bool named = std::find(format->splits.begin(), format->splits.end(), set.split) !=
-                     format->splits.end();
+  const bool named =
+      std::find(format->splits.begin(), format->splits.end(), set.split) != format->splits.end();
   if (!set.split.empty() && !named && fs::path(set.split).is_relative())
     set.split = (fs::path(folder) / set.split).lexically_normal().string();
   const json& options = reader.field(object, "options", where, false);
@@ -241,8 +241,7 @@ SuiteResult run_suite(const Predictor& predictor, const Suite& suite,
   return result;
 }
 
-AveragedScore set_score(const Summary& summary, const std::string& mode,
-                        const std::string& entry) {
+AveragedScore set_score(const Summary& summary, const std::string& mode, const std::string& entry) {
   double rel = 0, delta1 = 0;
   int64_t count = 0, excluded = 0;
   for (const auto& [split, by_mode] : summary.scores) {
@@ -282,8 +281,9 @@ AveragedScore group_score(const SuiteResult& result, const std::string& group,
 std::string suite_markdown(const SuiteResult& result) {
   const SuiteColumns& columns = result.suite.columns;
   std::string text = "# " + result.suite.name + ": " + result.model + "\n\n";
-  text += "Depth: " + columns.depth + "; points: " + columns.points + "; metric δ1: " +
-          columns.metric + ". Rel and δ1 in percent; a group is the mean of its sets.\n\n";
+  text += "Depth: " + columns.depth + "; points: " + columns.points +
+          "; metric δ1: " + columns.metric +
+          ". Rel and δ1 in percent; a group is the mean of its sets.\n\n";
   std::string header = "| Mode |", rule = "|---|";
   for (const Split split : kSplits)
     for (const char* column : {"depth Rel", "depth δ1", "points Rel", "points δ1"}) {
@@ -296,8 +296,8 @@ std::string suite_markdown(const SuiteResult& result) {
     for (const Split split : kSplits)
       for (const std::string* entry : {&columns.depth, &columns.points}) {
         const AveragedScore score = group_score(result, split_name(split), mode, *entry);
-        text += " " + percent_cell(score.rel, true) + " | " + percent_cell(score.delta1, false) +
-                " |";
+        text +=
+            " " + percent_cell(score.rel, true) + " | " + percent_cell(score.delta1, false) + " |";
       }
     text += "\n";
   }
@@ -306,16 +306,16 @@ std::string suite_markdown(const SuiteResult& result) {
       "δ1 |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const SuiteSetScores& set : result.sets)
     for (const std::string& mode : set.summary.modes) {
-      text += "| " + set.set.name + (set.set.group_mean ? "" : " (not in the group mean)") +
-              " | " + set.set.group + " | " + std::to_string(set.summary.samples_evaluated) +
-              " | " + mode + " |";
+      text += "| " + set.set.name + (set.set.group_mean ? "" : " (not in the group mean)") + " | " +
+              set.set.group + " | " + std::to_string(set.summary.samples_evaluated) + " | " + mode +
+              " |";
       for (const std::string* entry : {&columns.depth, &columns.points}) {
         const AveragedScore score = set_score(set.summary, mode, *entry);
-        text += " " + percent_cell(score.rel, true) + " | " + percent_cell(score.delta1, false) +
-                " |";
+        text +=
+            " " + percent_cell(score.rel, true) + " | " + percent_cell(score.delta1, false) + " |";
       }
-      text += " " + percent_cell(set_score(set.summary, mode, columns.metric).delta1, false) +
-              " |\n";
+      text +=
+          " " + percent_cell(set_score(set.summary, mode, columns.metric).delta1, false) + " |\n";
     }
   if (!result.missing.empty()) {
     text += "\nNot found under " + result.root + ":";
@@ -350,32 +350,30 @@ std::string suite_json(const SuiteResult& result) {
   }
   json sets = json::array();
   for (const SuiteSetScores& set : result.sets)
-    sets.push_back(
-        {{"name", set.set.name},
-         {"group", set.set.group},
-         {"group_mean", set.set.group_mean},
-         {"samples_total", set.summary.samples_total},
-         {"samples_evaluated", set.summary.samples_evaluated},
-         {"skipped", set.summary.skipped},
-         {"modes_not_supported", set.summary.modes_not_supported},
-         {"scores", entries([&](const std::string& mode, const std::string& entry) {
-            return set_score(set.summary, mode, entry);
-          })},
-         {"summary", json::parse(summary_json(set.summary))}});
+    sets.push_back({{"name", set.set.name},
+                    {"group", set.set.group},
+                    {"group_mean", set.set.group_mean},
+                    {"samples_total", set.summary.samples_total},
+                    {"samples_evaluated", set.summary.samples_evaluated},
+                    {"skipped", set.summary.skipped},
+                    {"modes_not_supported", set.summary.modes_not_supported},
+                    {"scores", entries([&](const std::string& mode, const std::string& entry) {
+                       return set_score(set.summary, mode, entry);
+                     })},
+                    {"summary", json::parse(summary_json(set.summary))}});
   json missing = json::array();
   for (const SuiteSet& set : result.missing)
     missing.push_back({{"name", set.name}, {"group", set.group}, {"root", set.root}});
-  const json table{{"suite", result.suite.name},
-                   {"model", result.model},
-                   {"root", result.root},
-                   {"columns",
-                    {{"depth", columns.depth},
-                     {"points", columns.points},
-                     {"metric", columns.metric}}},
-                   {"modes", result.modes},
-                   {"groups", groups},
-                   {"sets", sets},
-                   {"missing", missing}};
+  const json table{
+      {"suite", result.suite.name},
+      {"model", result.model},
+      {"root", result.root},
+      {"columns",
+       {{"depth", columns.depth}, {"points", columns.points}, {"metric", columns.metric}}},
+      {"modes", result.modes},
+      {"groups", groups},
+      {"sets", sets},
+      {"missing", missing}};
   return table.dump(2) + "\n";
 }
 

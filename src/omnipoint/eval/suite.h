@@ -81,16 +81,16 @@ struct SuiteSetScores {
 
 struct SuiteResult {
   Suite suite;
-  std::string model;                  // the predictor's label
-  std::string root;                   // the data root
-  std::vector<SuiteSetScores> sets;   // those found, in the suite's order
-  std::vector<SuiteSet> missing;      // those whose root is not under the data root
-  std::vector<std::string> records;   // every set's samples.jsonl lines
-  std::vector<std::string> modes;     // the modes that ran on some set, in Mode order
+  std::string model;                 // the predictor's label
+  std::string root;                  // the data root
+  std::vector<SuiteSetScores> sets;  // those found, in the suite's order
+  std::vector<SuiteSet> missing;     // those whose root is not under the data root
+  std::vector<std::string> records;  // every set's samples.jsonl lines
+  std::vector<std::string> modes;    // the modes that ran on some set, in Mode order
 };
 
 struct SuiteRunOptions {
-  std::string root;                // the data root
+  std::string root;                 // the data root
   std::vector<Mode> modes{Mode{}};  // the modes enabled (each set runs those it lists)
   RunOptions run;  // sparse depth, seed, callbacks (progress: over all sets' samples)
 };
