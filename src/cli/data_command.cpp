@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/dataset_options.h"
 #include "cli/progress.h"
 #include "omnipoint/data/dataset.h"
 #include "omnipoint/data/dataset_check.h"
@@ -37,17 +38,6 @@ void add_formats_command(CLI::App& parent) {
       }
     }
   });
-}
-
-// "NAME=VALUE" -> options[NAME] = VALUE.
-void parse_options(const std::vector<std::string>& given,
-                   std::map<std::string, std::string>& options) {
-  for (const std::string& option : given) {
-    const std::size_t at = option.find('=');
-    if (at == std::string::npos || at == 0)
-      throw std::invalid_argument("--option " + option + ": expected NAME=VALUE");
-    options[option.substr(0, at)] = option.substr(at + 1);
-  }
 }
 
 nlohmann::json report_json(const data::DatasetCheckReport& report) {
@@ -85,7 +75,7 @@ void add_check_command(CLI::App& parent) {
                       "Write a contact sheet PNG (image | distance) of a few items");
   command->add_option("--sheet-items", options->sheet_items, "Items on the sheet (default 4)");
   command->callback([options, given] {
-    parse_options(*given, options->location.options);
+    parse_format_options(*given, options->location.options);
     const data::DatasetCheckReport report = data::DatasetCheck(*options).Run();
     std::cout << report_json(report).dump(2) << "\n";
     if (report.ok()) return;
@@ -143,7 +133,7 @@ void add_convert_command(CLI::App& parent) {
   command->add_flag("--overwrite", options->overwrite,
                     "Write every item anew into an --out that holds files already");
   command->callback([options, given] {
-    parse_options(*given, options->location.options);
+    parse_format_options(*given, options->location.options);
     ConvertReports reports;
     const data::DatasetConvertReport report = data::DatasetConvert(*options, &reports).Run();
     std::cout << "converted " << report.converted << ", kept " << report.kept << ", skipped "

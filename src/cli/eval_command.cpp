@@ -1,12 +1,13 @@
 // omnipoint eval: binds the options of an eval::EvalJob (omnipoint/eval/eval_job.h), which runs
 // a model (OmniPoint or MoGe-2 checkpoint), a folder of external point maps, or a reference
-// baseline over datasets with MoGe's protocol, per camera split and condition mode. Writes to
-// --out:
+// baseline over datasets (--data, in any format with --format) or a benchmark suite's sets
+// (--suite, --root) with MoGe's protocol, per camera split and condition mode. Writes to --out:
 //   samples.jsonl   one JSON object per sample × mode (or per skipped sample)
-//   summary.json    averages per split and mode, NaN entries excluded and counted
-//   table.md        the paper-style table
+//   summary.json    averages per split and mode, NaN entries excluded and counted (--data)
+//   table.md        the paper-style table (--suite: per group and per set)
+//   table.json      --suite: the same tables as JSON, with each set's summary
 //   points/         with --save-points: each sample × mode's scored point map (and sparse input)
-// and a progress line with the ETA on stderr.
+// and a progress line with the ETA on stderr; with --suite, a warning line per set not found.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/dataset_options.h"
 #include "cli/device.h"
 #include "cli/download_report.h"
 #include "cli/threads.h"
@@ -30,9 +32,10 @@ struct EvalCommandOptions {
   eval::EvalJobOptions job;
   std::string device = "cpu";
   std::string precision = "auto";
-  std::vector<std::string> sparse_depth;  // no value: the default count
-  bool moge_relative = false;             // MoGe benchmark depth is not metric
-  int threads = 0;                        // 0: every core
+  std::vector<std::string> sparse_depth;    // no value: the default count
+  std::vector<std::string> format_options;  // --option NAME=VALUE
+  bool moge_relative = false;               // MoGe benchmark depth is not metric
+  int threads = 0;                          // 0: every core
 };
 
 // --sparse-depth takes an optional count (1,000, the paper's, when given without one).
@@ -80,14 +83,28 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
   job.sparse_depth = sparse_depth_given;
   job.sparse_depth_points = sparse_depth_points(options.sparse_depth);
   job.moge_metric = !options.moge_relative;
+  parse_format_options(options.format_options, job.format_options);
+  if (!job.suite.empty() && job.output_dir.empty())  // beside the working folder, by suite
+    job.output_dir = "eval_" + std::filesystem::path(job.suite).stem().string();
   EvalProgress progress;
   const eval::EvalJobResult result = eval::EvalJob(job, &progress).Run();
-  for (const auto& [reason, count] : result.run.summary.skipped)
-    std::cerr << "eval: skipped " << count << " sample(s): " << reason
-              << " (details in samples.jsonl)\n";
-  for (const auto& mode : result.run.summary.modes_not_supported)
-    std::cerr << "eval: mode " << mode << " not run: " << result.predictor
-              << " takes no such input\n";
+  std::vector<const eval::Summary*> summaries{&result.run.summary};
+  if (result.suite) {
+    summaries.clear();
+    for (const eval::SuiteSet& set : result.suite->missing)
+      std::cerr << "eval: warning: suite set " << set.name << " not found ("
+                << (std::filesystem::path(job.suite_root) / set.root).string() << ")\n";
+    for (const eval::SuiteSetScores& set : result.suite->sets) summaries.push_back(&set.summary);
+  }
+  for (const eval::Summary* summary : summaries) {
+    const std::string where = result.suite ? " of " + summary->datasets.front() : "";
+    for (const auto& [reason, count] : summary->skipped)
+      std::cerr << "eval: skipped " << count << " sample(s)" << where << ": " << reason
+                << " (details in samples.jsonl)\n";
+    for (const auto& mode : summary->modes_not_supported)
+      std::cerr << "eval: mode " << mode << " not run" << where << ": " << result.predictor
+                << " takes no such input\n";
+  }
   std::cout << result.table;
 }
 
@@ -124,22 +141,36 @@ void add_predictor_options(CLI::App* cmd, EvalCommandOptions& options) {
 // On what (datasets, modes) and what is written.
 void add_benchmark_options(CLI::App* cmd, EvalCommandOptions& options) {
   cmd->add_option("--data", options.job.data,
-                  "dataset folders (sample folders, MoGe benchmark roots)")
-      ->required()
+                  "dataset roots: sample folders or MoGe benchmark roots, or with --format "
+                  "any format's roots")
       ->expected(1, -1);
+  cmd->add_option("--format", options.job.format,
+                  "the --data roots' format (`omnipoint data formats`: kitti360, stanford2d3d, "
+                  "moge, ...); default: sample folders or MoGe benchmarks, found by their files");
+  cmd->add_option("--split", options.job.split,
+                  "with --format: one of the format's named splits, or a split list file");
+  cmd->add_option("--option", options.format_options,
+                  "with --format: a format option NAME=VALUE (repeatable)");
+  cmd->add_option("--suite", options.job.suite,
+                  "a benchmark suite (JSON, e.g. benchmarks/paper_suite.json): scores each of its "
+                  "sets found under --root and writes the table per camera group and per set");
+  cmd->add_option("--root", options.job.suite_root,
+                  "with --suite: the data root its sets' folders are relative to");
   cmd->add_flag("--intrinsics", options.job.intrinsics,
                 "also evaluate with the GT camera given (+K, +K+D)");
   cmd->add_option("--sparse-depth", options.sparse_depth,
                   "also evaluate with N GT sparse distances (+D, +K+D); N defaults to 1000")
       ->expected(0, 1);
-  cmd->add_option("--out", options.job.output_dir, "output folder")->required();
+  cmd->add_option("--out", options.job.output_dir,
+                  "output folder (with --suite, default eval_<suite file name>)");
   cmd->add_option("--seed", options.job.seed,
                   "seed mixed into the sparse-depth sampling (and of --random-model's weights)")
       ->capture_default_str();
   cmd->add_flag("--save-points", options.job.save_points,
                 "also write OUT/points/<dataset>/<id>/<mode>/points.npy, the point map scored, "
                 "and sparse_distance.npy, the sparse radial distances given (+D)");
-  cmd->add_flag("--moge-relative", options.moge_relative, "MoGe benchmark depth is not metric");
+  cmd->add_flag("--moge-relative", options.moge_relative,
+                "--data: MoGe benchmark depth is not metric (a suite says per set)");
 }
 
 }  // namespace
@@ -149,8 +180,9 @@ void add_eval_command(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "eval",
       "Score a model, external point maps or a baseline on datasets (our sample folders, MoGe "
-      "benchmarks) with MoGe's protocol per camera split (S.FoV / L.FoV / 360°) and condition "
-      "mode; writes samples.jsonl, summary.json and table.md to --out");
+      "benchmarks, any dataset format) or a benchmark suite with MoGe's protocol per camera "
+      "split (S.FoV / L.FoV / 360°) and condition mode; writes samples.jsonl and the tables "
+      "to --out");
   add_predictor_options(cmd, *options);
   add_benchmark_options(cmd, *options);
   add_threads_option(cmd, &options->threads);

@@ -327,6 +327,15 @@ KITTI360_FISHEYE = (b"%YAML:1.0\nmodel_type: MEI\ncamera_name: image_02\nimage_w
                     b"projection_parameters:\n   gamma1: 1.3363220825849971e+03\n"
                     b"   gamma2: 1.3357883350012958e+03\n   u0: 7.1694323510126321e+02\n"
                     b"   v0: 7.0576498308221585e+02\n")
+SUITE_SET = {"name": "A", "group": "360\u00b0", "format": "stanford2d3d", "root": "Stanford2D3D",
+             "split": "splits/a.txt", "options": {"sequence": "area_5a"}, "modes": ["none", "+K"]}
+SUITE = {"name": "s", "columns": {"depth": "depth_affine_invariant"}, "sets": [SUITE_SET]}
+
+
+def suite_with(**changes):
+    return js(dict(SUITE, sets=[dict(SUITE_SET, **changes)]))
+
+
 SEEDS = {
     "safetensors/empty.safetensors": safetensors({}),
     "safetensors/metadata_only.safetensors": safetensors({"__metadata__": {"format": "moge2", "config": "{}"}}),
@@ -427,6 +436,8 @@ SEEDS = {
                                         "params": [1.0, 1.0, 1.0, 1.0, 612.0, 277.0, 3.14159, 1.42192880719]}),
     "camera/unik3d_fisheye624.json": js({"name": "Fisheye624", "width": 64, "height": 48,
                                          "params": [30, 30, 32, 24, 0.01, 0, 0, 0, 0.001, 0, 0.0004, 0, 0, 0, 0, 0]}),
+    "eval_suite/paper_suite.json": open(os.path.join(ROOT, "benchmarks", "paper_suite.json"), "rb").read(),
+    "eval_suite/minimal.json": js(SUITE),
     "train_config/minimal.json": js(MINIMAL_TRAIN),
     "train_config/full.json": js(FULL_TRAIN),
     "checkpoint_metadata/omnipoint_default.json": BUNDLED_CONFIG,
@@ -626,6 +637,21 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "camera/unik3d_radial_tangential.json": (js({"name": "MEI", "width": 960, "height": 940,
                                                  "params": [890.9, 890.5, 477.8, 470.3, 0.0168, 1.6549, 0.00042, 0.00042, 2.2134]}),
                                              "both radial (k1 k2) and tangential (p1 p2) terms are non-zero"),
+    "eval_suite/not_json.json": (b'{"sets": [', "not JSON"),
+    "eval_suite/no_sets.json": (js({"name": "s"}), "sets: missing"),
+    "eval_suite/unknown_key.json": (js(dict(SUITE, bogus=1)), "bogus: unknown key"),
+    "eval_suite/column.json": (js(dict(SUITE, columns={"points": "points"})),
+                               "columns.points: \"points\" is no protocol entry"),
+    "eval_suite/group.json": (suite_with(group="wide"), "sets[0].group: expected"),
+    "eval_suite/format.json": (suite_with(format="nope"), "sets[0].format: \"nope\" is no dataset format"),
+    "eval_suite/option.json": (suite_with(options={"camera": "image_02"}),
+                               "sets[0].options.camera: format \"stanford2d3d\" has no such option"),
+    "eval_suite/modes.json": (suite_with(modes=["+D"]), "sets[0].modes: must hold \"none\""),
+    "eval_suite/mode_word.json": (suite_with(modes=["none", 3]), "sets[0].modes[1]: expected"),
+    "eval_suite/root_absolute.json": (suite_with(root="/data"), "sets[0].root: must be relative"),
+    "eval_suite/name_path.json": (suite_with(name="../x"), "sets[0].name: \"../x\" must not be a path"),
+    "eval_suite/twice.json": (js(dict(SUITE, sets=[SUITE_SET, SUITE_SET])),
+                              "sets[1].name: \"A\" is the name of an earlier set"),
     "train_config/not_json.json": (b'{"stages": [', "not valid JSON"),
     "train_config/unknown_key.json": (js(dict(MINIMAL_TRAIN, bogus=1)), "bogus: unknown key"),
     "train_config/threads_huge.json": (js(dict(MINIMAL_TRAIN, threads=1e300)), "threads: expected an integer in range"),

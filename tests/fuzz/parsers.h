@@ -22,6 +22,7 @@
 #include "omnipoint/data/moge_format.h"
 #include "omnipoint/data/png_text.h"
 #include "omnipoint/data/sample.h"
+#include "omnipoint/eval/suite.h"
 #include "omnipoint/io/colmap.h"
 #include "omnipoint/io/hub.h"
 #include "omnipoint/io/npy.h"
@@ -221,6 +222,11 @@ inline Parser camera_parser() {
         within_contract([&] { camera::parse_camera_file(b, s, "", camera::ImageSize{64, 48}); });
       }};
 }
+// A benchmark suite file (`omnipoint eval --suite`), its split lists relative to no folder.
+inline Parser eval_suite_parser() {
+  return {"eval_suite",
+          [](const std::string& b, const std::string& s) { eval::parse_suite(b, s, ""); }};
+}
 inline Parser train_config_parser() {
   return {"train_config",
           [](const std::string& b, const std::string& s) { train::TrainConfig::from_text(b, s); }};
@@ -353,7 +359,8 @@ inline const std::vector<Parser>& parsers() {
                                             checkpoint_metadata_parser(),
                                             hub_model_info_parser(),
                                             native_text_parser(),
-                                            kitti_text_parser()};
+                                            kitti_text_parser(),
+                                            eval_suite_parser()};
   return table;
 }
 

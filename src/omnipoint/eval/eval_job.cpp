@@ -94,7 +94,17 @@ void EvalJobOptions::Check() const {
     throw std::invalid_argument("--predictions " + predictions + ": not a folder");
   if (num_tokens < 0)
     throw std::invalid_argument("--num-tokens " + std::to_string(num_tokens) + ": expected >= 0");
-  if (data.empty()) throw std::invalid_argument("--data: no dataset folder given");
+  if (suite.empty() && data.empty()) throw std::invalid_argument("--data: no dataset folder given");
+  if (!suite.empty() && !data.empty())
+    throw std::invalid_argument("give either --data (datasets) or --suite (a benchmark suite)");
+  if (!suite.empty() && suite_root.empty())
+    throw std::invalid_argument("--suite needs --root: the folder holding the suite's sets");
+  if (suite.empty() && !suite_root.empty())
+    throw std::invalid_argument("--root is for --suite only (datasets are given by --data)");
+  if (format.empty() && (!split.empty() || !format_options.empty()))
+    throw std::invalid_argument("--split and --option need --format (the datasets' format)");
+  if (!suite.empty() && !format.empty())
+    throw std::invalid_argument("--format is for --data; a suite names each set's format");
   if (sparse_depth_points < 1)
     throw std::invalid_argument("--sparse-depth " + std::to_string(sparse_depth_points) +
                                 ": expected a count >= 1");
@@ -122,9 +132,27 @@ EvalJobResult EvalJob::Run() {
       save_points(out, item, mode, conditions, prediction);
     };
   EvalJobResult result;
+  if (!options_.suite.empty()) {
+    const Suite suite = read_suite(options_.suite);
+    SuiteRunOptions suite_run;
+    suite_run.root = options_.suite_root;
+    suite_run.modes = std::move(run.modes);
+    suite_run.run = std::move(run);
+    const Predictor predictor = make_predictor(options_);
+    result.predictor = predictor.name;
+    result.suite = run_suite(predictor, suite, suite_run);
+    result.table = write_suite_files(options_.output_dir, *result.suite);
+    return result;
+  }
+  std::vector<EvalDataset> datasets;
+  for (const std::string& root : options_.data) {
+    data::DatasetLocation location{root, options_.moge_metric, options_.split,
+                                   options_.format_options};
+    datasets.push_back(open_eval_dataset({root, options_.format, location}));
+  }
   const Predictor predictor = make_predictor(options_);
   result.predictor = predictor.name;
-  result.run = run_benchmark(predictor, options_.data, run);
+  result.run = score_datasets(predictor, datasets, run);
   result.table = write_run_files(options_.output_dir, result.run);
   return result;
 }

@@ -7,21 +7,26 @@
 //
 //   omnipoint::eval::EvalJobOptions options;
 //   options.model = "model.safetensors";
-//   options.data = {"benchmark/final"};
+//   options.data = {"benchmark/final"};  // or: options.suite = "benchmarks/paper_suite.json",
+//                                        //     options.suite_root = "data/eval"
 //   options.intrinsics = true;
 //   options.output_dir = "scores";
 //   const omnipoint::eval::EvalJobResult result = omnipoint::eval::EvalJob(options).Run();
 //
 // Bad options, an unreadable model and datasets without samples are thrown by Run() before any
-// sample is scored; a sample that cannot be read or has no prediction is skipped and counted
+// sample is scored, and so are a suite's sets that are there but do not open (those not there are
+// listed in SuiteResult::missing); a sample that cannot be read or has no prediction is skipped and counted
 // (Summary::skipped). Messages name the options by their `omnipoint eval` flags.
 #include <c10/core/Device.h>
 
 #include <cstdint>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "omnipoint/eval/runner.h"
+#include "omnipoint/eval/suite.h"
 #include "omnipoint/model/precision.h"
 
 namespace omnipoint::eval {
@@ -39,15 +44,22 @@ struct EvalJobOptions {
   at::Device device = at::kCPU;                             // where it runs
   model::Precision precision = model::Precision::kFloat32;  // the network's precision
   int64_t num_tokens = 0;  // ViT tokens per image; 0: the model's default
-  // The benchmark.
-  std::vector<std::string> data;       // dataset folders (sample folders, MoGe benchmark roots)
+  // The benchmark: datasets (data), or a suite's sets under a data root (suite, suite_root).
+  std::vector<std::string> data;  // dataset roots
+  // The format of every `data` root (data/dataset.h: a registered format); "": sample folders
+  // or MoGe benchmark roots, found by their files.
+  std::string format;
+  std::string split;                                  // with format: a named split or a list
+  std::map<std::string, std::string> format_options;  // with format: the format's options
+  std::string suite;                   // a suite file (suite.h); its sets replace `data`
+  std::string suite_root;              // the folder the suite's set roots are relative to
   bool intrinsics = false;             // also score with the true camera given (+K, +K+D)
   bool sparse_depth = false;           // also score with sparse true distances given (+D, +K+D)
   int64_t sparse_depth_points = 1000;  // how many (the paper's 1,000)
   uint64_t seed = 0;        // mixed into the sparse-depth sampling; random_model's weights
-  bool moge_metric = true;  // MoGe benchmark depth is in metres
+  bool moge_metric = true;  // MoGe benchmark depth is in metres (data; a suite says per set)
   // Outputs.
-  std::string output_dir;    // the run's files (write_run_files)
+  std::string output_dir;    // the run's files (write_run_files; a suite's: write_suite_files)
   bool save_points = false;  // also points/<dataset>/<id>/<mode>/points.npy, sparse_distance.npy
 
   // std::invalid_argument with one line for an option that is invalid or conflicts with another.
@@ -63,9 +75,10 @@ class EvalJobObserver {
 };
 
 struct EvalJobResult {
-  std::string predictor;  // the table's row label
-  RunResult run;
-  std::string table;  // table.md's text
+  std::string predictor;             // the table's row label
+  RunResult run;                     // of `data`
+  std::optional<SuiteResult> suite;  // of a suite (run is then empty)
+  std::string table;                 // table.md's text
 };
 
 class EvalJob {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
@@ -18,6 +19,8 @@
 #include "omnipoint/io/atomic_file.h"
 
 namespace omnipoint::eval {
+
+namespace fs = std::filesystem;
 
 const std::array<Split, 3> kSplits{Split::kSmallFov, Split::kLargeFov, Split::kPanorama};
 
@@ -127,22 +130,67 @@ nlohmann::json metrics_json(const Metrics& metrics) {
   return entries;
 }
 
+// An item's id: its name relative to the root when it lies under it (readers that name items
+// by their full path), else the name itself (readers whose names are relative already).
+std::string relative_id(const std::string& name, const std::string& root) {
+  const fs::path relative =
+      fs::path(name).lexically_normal().lexically_relative(fs::path(root).lexically_normal());
+  if (relative.empty() || *relative.begin() == "..") return fs::path(name).generic_string();
+  return relative.generic_string();
+}
+
 }  // namespace
+
+EvalDataset open_eval_dataset(const EvalSource& source) {
+  EvalDataset dataset{source.name, {}};
+  if (source.format.empty()) {
+    const bool metric = source.location.metric;
+    for (data::DatasetItem& item : data::list_dataset(source.location.path)) {
+      std::string id = item.id;
+      dataset.items.push_back({std::move(id), [item = std::move(item), metric] {
+                                 return data::read_dataset_item(item, metric);
+                               }});
+    }
+    return dataset;
+  }
+  std::shared_ptr<const data::Dataset> opened = data::open_dataset(source.format, source.location);
+  for (int64_t index = 0; index < opened->size(); ++index)
+    dataset.items.push_back(
+        {relative_id(opened->item_name({index, 0}), source.location.path), [opened, index] {
+           return opened->item({index, 0});
+         }});
+  return dataset;
+}
 
 RunResult run_benchmark(const Predictor& predictor, const std::vector<std::string>& datasets,
                         const RunOptions& options) {
   if (datasets.empty()) throw std::invalid_argument("no dataset given");
+  std::vector<EvalDataset> opened;
+  for (const std::string& root : datasets) {
+    data::DatasetLocation location;
+    location.path = root;
+    location.metric = options.moge_metric;
+    opened.push_back(open_eval_dataset({root, "", location}));
+  }
+  return score_datasets(predictor, opened, options);
+}
+
+RunResult score_datasets(const Predictor& predictor, const std::vector<EvalDataset>& datasets,
+                         const RunOptions& options) {
+  if (datasets.empty()) throw std::invalid_argument("no dataset given");
   if (options.sparse_depth_points < 1)
     throw std::invalid_argument("sparse depth points " +
                                 std::to_string(options.sparse_depth_points) + ": expected >= 1");
-  std::vector<std::pair<std::string, data::DatasetItem>> items;
-  for (const auto& root : datasets)
-    for (auto& item : data::list_dataset(root)) items.emplace_back(root, std::move(item));
+  std::vector<std::pair<std::string, const EvalItem*>> items;
+  for (const EvalDataset& dataset : datasets)
+    for (const EvalItem& item : dataset.items) items.emplace_back(dataset.name, &item);
+  std::vector<std::string> names;
+  for (const EvalDataset& dataset : datasets) names.push_back(dataset.name);
 
   RunResult result;
   Summary& summary = result.summary;
   summary.model = predictor.name;
-  summary.datasets = datasets;
+  summary.datasets = names;
   summary.samples_total = static_cast<int64_t>(items.size());
   std::vector<Mode> modes;
   for (const Mode& mode : options.modes) {
@@ -167,10 +215,11 @@ RunResult run_benchmark(const Predictor& predictor, const std::vector<std::strin
   };
 
   for (size_t index = 0; index < items.size(); ++index) {
-    const auto& [root, item] = items[index];
+    const std::string& root = items[index].first;
+    const EvalItem& item = *items[index].second;
     std::optional<EvalSample> read;
     try {
-      data::Sample sample = data::read_dataset_item(item, options.moge_metric);
+      data::Sample sample = item.read();
       const Split split = camera_split(sample.camera);
       read = EvalSample{root, item.id, split, std::move(sample)};
     } catch (const std::exception& e) {
@@ -254,6 +303,14 @@ std::string summary_json(const Summary& summary) {
   return json.dump(2) + "\n";
 }
 
+std::string percent_cell(double value, bool rel) {
+  const double percent = 100.0 * value;
+  if (!std::isfinite(percent)) return "–";
+  char text[32];
+  std::snprintf(text, sizeof text, rel ? "%.2f" : "%.1f", percent);
+  return text;
+}
+
 std::string markdown_table(const std::vector<Summary>& summaries) {
   std::vector<std::string> splits;
   for (const Split split : kSplits)
@@ -274,11 +331,7 @@ std::string markdown_table(const std::vector<Summary>& summaries) {
                        bool rel) {
     if (!entries || !entries->count(entry)) return std::string("–");
     const AveragedScore& score = entries->at(entry);
-    const double value = 100.0 * (rel ? score.rel : score.delta1);
-    if (!std::isfinite(value)) return std::string("–");
-    char text[32];
-    std::snprintf(text, sizeof text, rel ? "%.2f" : "%.1f", value);
-    return std::string(text);
+    return percent_cell(rel ? score.rel : score.delta1, rel);
   };
   for (const Summary& summary : summaries) {
     for (const auto& mode : summary.modes) {

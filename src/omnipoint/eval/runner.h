@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/data/dataset.h"
 #include "omnipoint/data/sample.h"
 #include "omnipoint/eval/metrics.h"
 
@@ -119,9 +120,36 @@ struct RunResult {
   Summary summary;
 };
 
-// Lists and reads the datasets (data/dataset_index.h) and runs `predictor` on every sample in
-// every mode. A dataset that is missing or empty -> std::runtime_error; a sample that cannot
-// be read or predicted is skipped, with its reason counted and recorded.
+// Where an evaluation dataset is: a folder found by its files (sample folders, MoGe benchmarks:
+// data/dataset_index.h) or a registered format's root (data/dataset.h: open_dataset).
+struct EvalSource {
+  std::string name;    // how records and summaries name the dataset (the root as given)
+  std::string format;  // a registered format ("kitti360", "moge", ...); "": found by its files
+  data::DatasetLocation location;  // root, split, options; `metric` for MoGe benchmarks
+};
+
+// A dataset's samples, listed (each read when scored).
+struct EvalItem {
+  std::string id;  // relative to the dataset's root ("/"-separated)
+  std::function<data::Sample()> read;
+};
+struct EvalDataset {
+  std::string name;
+  std::vector<EvalItem> items;
+};
+
+// Lists a source's samples. A root that is missing or holds no sample, an unknown format or
+// option, a split list naming missing files -> std::runtime_error / std::invalid_argument
+// naming it.
+EvalDataset open_eval_dataset(const EvalSource& source);
+
+// Runs `predictor` on every sample of the datasets in every mode. A sample that cannot be read
+// or predicted is skipped, with its reason counted and recorded.
+RunResult score_datasets(const Predictor& predictor, const std::vector<EvalDataset>& datasets,
+                         const RunOptions& options);
+// score_datasets on dataset folders found by their files (open_eval_dataset of each, MoGe
+// benchmarks metric as options.moge_metric says). A dataset that is missing or empty ->
+// std::runtime_error.
 RunResult run_benchmark(const Predictor& predictor, const std::vector<std::string>& datasets,
                         const RunOptions& options);
 
@@ -139,6 +167,10 @@ uint64_t sample_seed(const std::string& id, uint64_t seed);
 
 // The summary as JSON text (NaN as null).
 std::string summary_json(const Summary& summary);
+
+// A table cell: `value` (a fraction) in percent, Rel with 2 decimals, δ1 with 1; "–" when not
+// finite.
+std::string percent_cell(double value, bool rel);
 
 // The paper-style table: a row per summary and mode; per split (in kSplits order, those
 // present in any summary) depth Rel / δ1 (depth_scale_invariant), points Rel / δ1
