@@ -11,8 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -108,8 +108,8 @@ const SyntheticRig& synthetic_rig() {
     SyntheticRig rig;
     data::synth::Scene scene = data::synth::make_scene(data::synth::SceneKind::kIndoor, 11);
     // The body in the room: the scene's camera pose, turned a little.
-    const data::synth::Pose base = data::synth::make_pose(
-        scene.pose.position, scene.pose.yaw + 0.3, scene.pose.pitch, scene.pose.roll);
+    const data::synth::Pose base = data::synth::make_pose(scene.pose.position, scene.pose.yaw + 0.3,
+                                                          scene.pose.pitch, scene.pose.roll);
     at::Tensor world_from_body = at::eye(4, at::kDouble);
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) world_from_body[i][j] = base.rotation[i][j];
@@ -139,7 +139,8 @@ const SyntheticRig& synthetic_rig() {
                              world_from_camera[1][3].item<double>(),
                              world_from_camera[2][3].item<double>()};
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) scene.pose.rotation[i][j] = world_from_camera[i][j].item<double>();
+        for (int j = 0; j < 3; ++j)
+          scene.pose.rotation[i][j] = world_from_camera[i][j].item<double>();
       const data::synth::Render render =
           data::synth::render_scene(scene, ray_map.rays, ray_map.valid, render_options);
       const at::Tensor camera_points = ray_map.rays * render.distance.unsqueeze(-1);
@@ -280,9 +281,8 @@ TEST_F(RigPredict, GroundTruthFusesIntoTheSceneInTheBodyFrame) {
   EXPECT_EQ(summary.written, 1);
   EXPECT_EQ(summary.failed, 0);
   EXPECT_EQ(summary.warnings, 0);
-  EXPECT_EQ(recorder.events, (std::vector<std::string>{"start 4 1", "frame 0 f000",
-                                                        "written f000", "done 0",
-                                                        "finished 1 0 0"}));
+  EXPECT_EQ(recorder.events, (std::vector<std::string>{"start 4 1", "frame 0 f000", "written f000",
+                                                       "done 0", "finished 1 0 0"}));
 
   const io::PlyPoints fused = io::read_ply((dir_ / "out" / "f000" / "fused.ply").string());
   int64_t offset = 0;
@@ -296,8 +296,9 @@ TEST_F(RigPredict, GroundTruthFusesIntoTheSceneInTheBodyFrame) {
     const double error = max_relative_error(points, v.body_points.index({v.mask}), centre);
     EXPECT_LE(error, 1e-5);
     // Each point's direction from its camera centre: the camera's ray rotated into the body.
-    const at::Tensor rays = v.rays.index({v.mask}).to(at::kDouble).matmul(
-        v.body_from_camera.slice(0, 0, 3).slice(1, 0, 3).t());
+    const at::Tensor rays = v.rays.index({v.mask})
+                                .to(at::kDouble)
+                                .matmul(v.body_from_camera.slice(0, 0, 3).slice(1, 0, 3).t());
     const at::Tensor directions = (points - centre) / (points - centre).norm(2, -1, true);
     const double ray_error = (directions - rays).norm(2, -1).max().item<double>();
     EXPECT_LE(ray_error, 1e-5);
@@ -444,6 +445,11 @@ TEST_F(RigPredict, BadRigFilesAndOptionsAreOneErrorBeforeAnyWork) {
   std::ofstream(dir_ / "rig.json") << rig.dump();
   test::expect_error<std::invalid_argument>([&] { RigPredictJob(options_).Run(); },
                                             {"cameras[2].name", "front"});
+  rig = json::parse(synthetic_rig().rig_text());
+  rig["cameras"][0]["name"] = "rig.json";
+  std::ofstream(dir_ / "rig.json") << rig.dump();
+  test::expect_error<std::invalid_argument>([&] { RigPredictJob(options_).Run(); },
+                                            {"a camera named rig.json"});
   std::ofstream(dir_ / "rig.json") << synthetic_rig().rig_text();
 
   RigPredictJobOptions options = options_;
@@ -493,10 +499,11 @@ TEST_F(RigPredict, BundledModelWithLidarFindsTheTrueScales) {
                       .item<double>();
     }
     EXPECT_NEAR(scales[0] / truths[0], 1.0, 0.1);
-    std::printf("%s: with LiDAR scale %.4f, truth %.4f (%+.1f %%); network's own %.4f, truth %.4f "
-                "(%+.1f %%)\n",
-                v.name.c_str(), scales[0], truths[0], 100 * (scales[0] / truths[0] - 1), scales[1],
-                truths[1], 100 * (scales[1] / truths[1] - 1));
+    std::printf(
+        "%s: with LiDAR scale %.4f, truth %.4f (%+.1f %%); network's own %.4f, truth %.4f "
+        "(%+.1f %%)\n",
+        v.name.c_str(), scales[0], truths[0], 100 * (scales[0] / truths[0] - 1), scales[1],
+        truths[1], 100 * (scales[1] / truths[1] - 1));
   }
 }
 
@@ -508,8 +515,8 @@ TEST(RigPredictCli, WritesTheFrameAndItsReport) {
   std::ofstream(dir / "rig.json") << rig.rig_text();
   const std::string model = " --model '" + tiny_model_path() + "' --num-tokens 12";
   const test::CliRun run = test::run_omnipoint(
-      "predict --rig " + (dir / "rig.json").string() + " " + (dir / "frames").string() +
-          " --out " + (dir / "out").string() + model + " --outputs ply,glb",
+      "predict --rig " + (dir / "rig.json").string() + " " + (dir / "frames").string() + " --out " +
+          (dir / "out").string() + model + " --outputs ply,glb",
       dir);
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("1 frame(s): 1 written, 0 failed"), std::string::npos) << run.err;
@@ -528,8 +535,8 @@ TEST(RigPredictCli, WritesTheFrameAndItsReport) {
     const json& camera = report["cameras"][v.name];
     const std::string source = camera["scale_source"];
     EXPECT_TRUE(source == "lidar" || source == "network") << source;
-    EXPECT_NEAR(camera["disagreement"].get<double>(),
-                camera["scale"].get<double>() / rig_scale - 1, 1e-9);
+    EXPECT_NEAR(camera["disagreement"].get<double>(), camera["scale"].get<double>() / rig_scale - 1,
+                1e-9);
   }
 
   // Bad input: one error line, nothing written.

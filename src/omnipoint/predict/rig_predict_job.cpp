@@ -116,7 +116,8 @@ json pose_rows(const at::Tensor& pose) {
   const at::Tensor m = pose.to(at::kDouble).contiguous();
   json rows = json::array();
   for (int64_t r = 0; r < 3; ++r)
-    rows.push_back(std::vector<double>(m.data_ptr<double>() + 4 * r, m.data_ptr<double>() + 4 * r + 4));
+    rows.push_back(
+        std::vector<double>(m.data_ptr<double>() + 4 * r, m.data_ptr<double>() + 4 * r + 4));
   return rows;
 }
 
@@ -159,8 +160,9 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
   frame.name = name;
   frame.folder = (fs::path(options_.output_dir) / name).string();
   for (const fs::path& other : files.others)
-    warn(name, other.string() + ": neither an image of a rig camera nor lidar.<bin|ply|pcd>: "
-                                "ignored");
+    warn(name, other.string() +
+                   ": neither an image of a rig camera nor lidar.<bin|ply|pcd>: "
+                   "ignored");
   std::vector<CameraImage> images;
   for (const io::RigCamera& camera : rig_.cameras) {
     const auto file = files.images.find(camera.name);
@@ -294,6 +296,10 @@ RigPredictJobSummary JobRun::run() {
     throw std::runtime_error("this build has no image file I/O (OpenCV)");
   options_.Check();
   rig_ = io::read_rig(options_.rig);
+  for (const char* file : {"fused.ply", "fused.glb", "rig.json"})
+    if (rig_.find(file) != nullptr)
+      throw std::invalid_argument(options_.rig + ": a camera named " + file +
+                                  " would overwrite the frame's " + file + "; rename it");
   if (!options_.lidar_format.empty())
     lidar_floats_per_point_ = io::lidar_floats_per_point(options_.lidar_format);
   else if (rig_.lidar)

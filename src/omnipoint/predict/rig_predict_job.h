@@ -91,23 +91,23 @@ struct RigPredictJobOptions {
 // One camera of a written frame.
 struct RigCameraResult {
   std::string name;
-  std::string image;            // its image file
-  std::string scale_source;     // "lidar" or "network"
-  double scale = 1;             // the network's metric scale x the alignment to the sweep
-  double disagreement = 0;      // scale / rig scale - 1
-  double applied_scale = 1;     // the scale of its outputs (its own, or the rig scale)
-  Prediction prediction;        // at applied_scale, in its camera frame
+  std::string image;         // its image file
+  std::string scale_source;  // "lidar" or "network"
+  double scale = 1;          // the network's metric scale x the alignment to the sweep
+  double disagreement = 0;   // scale / rig scale - 1
+  double applied_scale = 1;  // the scale of its outputs (its own, or the rig scale)
+  Prediction prediction;     // at applied_scale, in its camera frame
 };
 
 // One written frame.
 struct RigFrameResult {
-  std::string name;                     // the frame folder's name
-  std::string folder;                   // OUT/<frame>
-  double rig_scale = 1;                 // the median of the cameras' scales (see the top)
-  std::string lidar;                    // the sweep file, "" when none
+  std::string name;                      // the frame folder's name
+  std::string folder;                    // OUT/<frame>
+  double rig_scale = 1;                  // the median of the cameras' scales (see the top)
+  std::string lidar;                     // the sweep file, "" when none
   std::vector<RigCameraResult> cameras;  // in the rig's order
   std::vector<std::string> missing_cameras;
-  int64_t fused_points = 0;             // fused.ply's
+  int64_t fused_points = 0;  // fused.ply's
 };
 
 struct RigPredictJobSummary {
