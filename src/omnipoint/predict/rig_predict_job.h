@@ -13,7 +13,8 @@
 //                (fused.glb too when points.glb is among the outputs)
 //   rig.json     the scales: {"frame", "rig_scale", "overlap_residual", "scale_rule", "lidar",
 //                "missing_cameras", "fused_points", "cameras": {NAME: {"scale", "scale_source",
-//                "disagreement", "applied_scale", "sparse_samples", "body_from_camera"}}}
+//                "disagreement", "applied_scale", "sparse_samples", "image",
+//                "body_from_camera"}}}
 // The frame's folder appears complete or not at all (io::StagedFolder).
 //
 // One scale for the rig. A camera's scale is the factor that took its network distances to
