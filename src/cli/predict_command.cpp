@@ -1,5 +1,6 @@
-// omnipoint predict: binds the options of predict::PredictJob (omnipoint/predict/predict_job.h)
-// and prints what it reports: a bad image or sparse-depth file skips that image with one line
+// omnipoint predict: binds the options of predict::PredictJob (omnipoint/predict/predict_job.h),
+// or with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h), and
+// prints what it reports: a bad image or sparse-depth file skips that image with one line
 // on stderr; inputs that look wrong get a warning line; the run ends with a summary that counts
 // both, and a non-zero status when an image failed. --view then serves the outputs.
 #include <CLI/CLI.hpp>
@@ -25,7 +26,9 @@ namespace {
 
 struct PredictCommandOptions {
   predict::PredictJobOptions job;  // what the options below do not need to translate
+  std::string rig;                 // --rig: the rig file; the one input is the frames folder
   std::string lidar_format = "kitti";
+  bool lidar_format_given = false;  // --rig: it overrides the rig file's
   std::string model_path;
   std::string outputs = "default";
   std::string fit_model = "auto";
@@ -36,6 +39,31 @@ struct PredictCommandOptions {
   bool no_exif = false;
   int threads = 0;  // 0: every core
 };
+
+// --rig: the job's options that apply to a rig, carried over.
+void run_rig_predict(const PredictCommandOptions& options) {
+  const predict::PredictJobOptions& job = options.job;
+  if (job.inputs.size() != 1)
+    throw std::invalid_argument("--rig: expected one frames folder, got " +
+                                std::to_string(job.inputs.size()) + " inputs");
+  predict::RigPredictJobOptions rig;
+  rig.rig = options.rig;
+  rig.frames_dir = job.inputs.front();
+  if (options.lidar_format_given) rig.lidar_format = options.lidar_format;
+  rig.model_path = job.model_path;
+  rig.device = job.device;
+  rig.precision = job.precision;
+  rig.max_size = job.max_size;
+  rig.num_tokens = job.num_tokens;
+  rig.edge_rtol = job.edge_rtol;
+  rig.output_dir = job.output_dir;
+  rig.output_files = job.output_files;
+  RigPredictReports reports;
+  const predict::RigPredictJobSummary summary = predict::RigPredictJob(rig, &reports).Run();
+  if (summary.failed > 0)
+    throw std::runtime_error(std::to_string(summary.failed) + " of " +
+                             std::to_string(summary.frames) + " frames failed (see above)");
+}
 
 void run_predict(PredictCommandOptions& options) {
   if (options.view && !viewer_available())
@@ -51,6 +79,10 @@ void run_predict(PredictCommandOptions& options) {
   if (bundled_model_chosen(options.model_path))
     std::fprintf(stderr, "omnipoint: note: %s\n", kBundledModelNote);
   job.model_path = model_path_or_bundled(options.model_path);
+  if (!options.rig.empty()) {
+    run_rig_predict(options);
+    return;
+  }
   PredictReports reports;
   const predict::PredictJobSummary summary = predict::PredictJob(job, &reports).Run();
   if (summary.failed > 0)
@@ -106,6 +138,16 @@ void add_input_options(CLI::App* command, PredictCommandOptions& options) {
                    "Record layout of .bin scans: kitti (x y z intensity), nuscenes (x y z "
                    "intensity ring) or the number of float32 values per point")
       ->capture_default_str();
+  CLI::Option* rig = command->add_option(
+      "--rig", options.rig,
+      "A rig file (docs/RIG.md): the one input is then a folder of frames, FRAMES/<frame>/ "
+      "holding <camera name>.jpg (or .png, ...) per camera and optionally a LiDAR sweep "
+      "lidar.bin|ply|pcd; writes OUT/<frame>/<camera>/, fused.ply (every camera's points in the "
+      "body frame) and rig.json (the cameras' scales)");
+  for (const char* other :
+       {"--camera", "--fov", "--colmap", "--sparse-depth", "--sparse-depth-radial", "--depth-scale",
+        "--lidar-to-camera", "--no-exif"})
+    rig->excludes(other);
 }
 
 // The network: which model, where, at what size and precision.
@@ -167,11 +209,14 @@ void add_predict_command(CLI::App& app) {
       "predict",
       "Predict a 3D point cloud from each image (files, or folders searched recursively; every "
       "format OpenCV decodes); writes OUT/<image path>/ with points.ply/.glb, .npy maps, PNG "
-      "maps, a preview and camera.json (--outputs chooses)");
+      "maps, a preview and camera.json (--outputs chooses); with --rig, a rig's frames into one "
+      "cloud per frame in the body frame");
   add_input_options(command, *options);
   add_network_options(command, *options);
   add_output_options(command, *options);
-  command->callback([options] {
+  command->get_option("--rig")->excludes("--fit-model")->excludes("--view");
+  command->callback([options, command] {
+    options->lidar_format_given = command->count("--lidar-format") > 0;
     use_threads(options->threads);
     io::set_large_file_writes(options->cached_writes ? io::LargeFileWrites::page_cache
                                                      : io::LargeFileWrites::direct);

@@ -45,4 +45,38 @@ void PredictReports::finished(const predict::PredictJobSummary& summary) {
                   std::to_string(summary.warnings) + " warning(s)");
 }
 
+void RigPredictReports::start(const io::Rig& rig, const std::vector<std::string>& frames) {
+  progress_.emplace(static_cast<int64_t>(frames.size()));
+  progress_->line("rig of " + std::to_string(rig.cameras.size()) + " camera(s)" +
+                  (rig.lidar ? " and a LiDAR" : "") + ", " + std::to_string(frames.size()) +
+                  " frame(s)");
+}
+
+void RigPredictReports::frame_started(size_t index, const std::string& frame) {
+  progress_->start(static_cast<int64_t>(index), frame);
+}
+
+void RigPredictReports::warning(const std::string& frame, const std::string& text) {
+  progress_->line("omnipoint: warning: " + progress_->prefix() + "frame " + frame + ": " + text);
+}
+
+void RigPredictReports::frame_written(const predict::RigFrameResult& frame) {
+  progress_->line(progress_->prefix() + predict::describe(frame));
+}
+
+void RigPredictReports::frame_failed(const std::string& frame, const std::string& error) {
+  progress_->line("omnipoint: error: " + progress_->prefix() + "skipped frame " + frame + ": " +
+                  error);
+}
+
+void RigPredictReports::frame_done(size_t /*index*/) {
+  progress_->done();
+}
+
+void RigPredictReports::finished(const predict::RigPredictJobSummary& summary) {
+  progress_->line(std::to_string(summary.frames) + " frame(s): " + std::to_string(summary.written) +
+                  " written, " + std::to_string(summary.failed) + " failed, " +
+                  std::to_string(summary.warnings) + " warning(s)");
+}
+
 }  // namespace omnipoint::cli

@@ -1,12 +1,15 @@
 #pragma once
-// What `omnipoint predict` prints while its job runs (predict::PredictJobObserver): each report
+// What `omnipoint predict` prints while its job runs (predict::PredictJobObserver, and
+// predict::RigPredictJobObserver for --rig, per frame): each report
 // as a line on stderr around the progress bar (cli/progress.h); an image's lines carry the
 // bar's "[i/N] " on plain output.
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cli/progress.h"
 #include "omnipoint/predict/predict_job.h"
+#include "omnipoint/predict/rig_predict_job.h"
 
 namespace omnipoint::cli {
 
@@ -21,6 +24,20 @@ class PredictReports : public predict::PredictJobObserver {
   void image_failed(const predict::ImageEntry& image, const std::string& error) override;
   void image_done(size_t index) override;
   void finished(const predict::PredictJobSummary& summary) override;
+
+ private:
+  std::optional<Progress> progress_;
+};
+
+class RigPredictReports : public predict::RigPredictJobObserver {
+ public:
+  void start(const io::Rig& rig, const std::vector<std::string>& frames) override;
+  void frame_started(size_t index, const std::string& frame) override;
+  void warning(const std::string& frame, const std::string& text) override;
+  void frame_written(const predict::RigFrameResult& frame) override;
+  void frame_failed(const std::string& frame, const std::string& error) override;
+  void frame_done(size_t index) override;
+  void finished(const predict::RigPredictJobSummary& summary) override;
 
  private:
   std::optional<Progress> progress_;

@@ -1,0 +1,156 @@
+#pragma once
+// Predicting the frames of a camera rig into one metric cloud per frame in the rig's body frame
+// (`omnipoint predict --rig RIG.json FRAMES`, docs/RIG.md). A frame is a folder FRAMES/<frame>/
+// holding one image per camera of the rig named after it (front.jpg, left.png, ...) and
+// optionally a LiDAR sweep lidar.<bin|ply|pcd>; frames are the immediate subfolders of FRAMES in
+// name order. For each frame every camera is predicted with its camera given and the sweep,
+// taken into its frame through the rig's body_from_lidar and body_from_camera, as its sparse
+// depth; then the frame gets one scale (below) and OUT/<frame>/ is written:
+//   <camera>/    the usual per-camera outputs (outputs.h) in that camera's frame at its final
+//                scale, and points_world.ply: its points in the body frame (camera.json records
+//                the camera-from-body pose as camera_from_world)
+//   fused.ply    every valid point of every camera in the body frame, coloured by its image
+//                (fused.glb too when points.glb is among the outputs)
+//   rig.json     the scales: {"frame", "rig_scale", "overlap_residual", "scale_rule", "lidar",
+//                "missing_cameras", "fused_points", "cameras": {NAME: {"scale", "scale_source",
+//                "disagreement", "applied_scale", "sparse_samples", "image",
+//                "body_from_camera"}}}
+// The frame's folder appears complete or not at all (io::StagedFolder).
+//
+// One scale for the rig. A camera's scale is the factor that took its network distances to
+// metres: the network's metric scale times the alignment to the sweep's points in its view
+// ("scale_source": "lidar" when it had sweep samples, else "network"). The rig scale is the
+// median of the cameras' scales — of the LiDAR-aligned ones when any camera has sweep samples —
+// and a camera's disagreement is scale / rig scale - 1. A LiDAR-aligned camera keeps its own
+// scale (the sweep measured it); every other camera is brought to the rig scale
+// ("applied_scale"). The overlap rule of the design (reconciling LiDAR-less cameras from where
+// their views overlap) is not implemented: "overlap_residual" is null.
+//
+//   omnipoint::predict::RigPredictJobOptions options;
+//   options.rig = "rig.json";
+//   options.frames_dir = "frames";
+//   options.model_path = "model.safetensors";
+//   options.output_dir = "rig_predictions";
+//   omnipoint::predict::RigPredictJob(options, &observer).Run();
+//
+// A camera without an image in a frame is a warning (the frame is predicted without it), as is
+// a file of a frame folder that is neither a camera's image nor the sweep. A frame that cannot
+// be predicted (none of the rig's cameras, an unreadable image, two images for one camera, a bad
+// sweep) is skipped with one error and counted (RigPredictJobSummary::failed); nothing of it is
+// written. Errors of the whole job (bad options, a bad rig file, no frame folder, a missing
+// model) are thrown by Run() before any frame is predicted. Messages name the options by their
+// `omnipoint predict` flags.
+#include <ATen/core/Tensor.h>
+#include <c10/core/Device.h>
+
+#include <cstdint>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "omnipoint/io/rig.h"
+#include "omnipoint/model/precision.h"
+#include "omnipoint/predict/outputs.h"
+#include "omnipoint/predict/predictor.h"
+
+namespace omnipoint::predict {
+
+// One camera's image of one frame, as the job hands it to the predictor.
+struct RigCameraImage {
+  std::string frame;   // the frame folder's name
+  std::string camera;  // the rig camera's name
+  at::Tensor image;    // (H, W, 3) float32 RGB in [0, 1], at the network's size (max_size)
+};
+
+// Predicts one camera's image with the options the job gives it (the camera, the sweep as
+// sparse depth): Model::predict, or another predictor (the tests' ground truth).
+using RigCameraPredictor =
+    std::function<Prediction(const RigCameraImage& image, const PredictOptions& options)>;
+
+struct RigPredictJobOptions {
+  // Inputs.
+  std::string rig;           // the rig file (io::read_rig)
+  std::string frames_dir;    // FRAMES: one subfolder per frame
+  std::string lidar_format;  // the sweeps' .bin layout (--lidar-format); "": the rig's
+  // The network.
+  std::string model_path;                                   // the checkpoint (Model::load)
+  RigCameraPredictor predictor;                             // replaces the model when set
+  at::Device device = at::kCPU;                             // where the model runs
+  model::Precision precision = model::Precision::kFloat32;  // the network's precision
+  int64_t max_size = 0;                 // longest image side for the network and outputs; 0: as is
+  int64_t num_tokens = 0;               // ViT token budget; 0: the model's default
+  double edge_rtol = kDefaultEdgeRtol;  // flying-pixel filter tolerance; 0: off
+  // Outputs.
+  std::string output_dir = "predictions";  // OUT: one folder per frame below it
+  std::set<std::string> output_files = default_output_files();  // per camera (outputs.h)
+
+  // std::invalid_argument with one line for an option that is invalid or conflicts with another.
+  void Check() const;
+};
+
+// One camera of a written frame.
+struct RigCameraResult {
+  std::string name;
+  std::string image;         // its image file
+  std::string scale_source;  // "lidar" or "network"
+  double scale = 1;          // the network's metric scale x the alignment to the sweep
+  double disagreement = 0;   // scale / rig scale - 1
+  double applied_scale = 1;  // the scale of its outputs (its own, or the rig scale)
+  Prediction prediction;     // at applied_scale, in its camera frame
+};
+
+// One written frame.
+struct RigFrameResult {
+  std::string name;                      // the frame folder's name
+  std::string folder;                    // OUT/<frame>
+  double rig_scale = 1;                  // the median of the cameras' scales (see the top)
+  std::string lidar;                     // the sweep file, "" when none
+  std::vector<RigCameraResult> cameras;  // in the rig's order
+  std::vector<std::string> missing_cameras;
+  int64_t fused_points = 0;  // fused.ply's
+};
+
+struct RigPredictJobSummary {
+  int64_t frames = 0;    // found
+  int64_t written = 0;   // frame folders written
+  int64_t failed = 0;    // skipped on an error
+  int64_t warnings = 0;  // about the frames
+};
+
+// What a job reports while it runs; every hook does nothing unless overridden. Calls come from
+// the thread that runs the job, in this order: start, then per frame frame_started, its
+// warnings, frame_written or frame_failed, frame_done; finished.
+class RigPredictJobObserver {
+ public:
+  virtual ~RigPredictJobObserver() = default;
+  // The rig is read, the frames are found and the model is loaded.
+  virtual void start(const io::Rig& /*rig*/, const std::vector<std::string>& /*frames*/) {}
+  virtual void frame_started(size_t /*index*/, const std::string& /*frame*/) {}
+  // Something about the frame looks wrong (a camera without its image, a stray file, a
+  // camera's prediction warnings); the frame is still predicted.
+  virtual void warning(const std::string& /*frame*/, const std::string& /*text*/) {}
+  virtual void frame_written(const RigFrameResult& /*frame*/) {}
+  // The frame is skipped: `error` says why; nothing was written for it.
+  virtual void frame_failed(const std::string& /*frame*/, const std::string& /*error*/) {}
+  virtual void frame_done(size_t /*index*/) {}
+  virtual void finished(const RigPredictJobSummary& /*summary*/) {}
+};
+
+class RigPredictJob {
+ public:
+  // `observer` (may be null) must outlive Run().
+  explicit RigPredictJob(RigPredictJobOptions options, RigPredictJobObserver* observer = nullptr);
+  // Checks the options, reads the rig, finds the frames, loads the model, predicts every frame.
+  RigPredictJobSummary Run();
+
+ private:
+  RigPredictJobOptions options_;
+  RigPredictJobObserver* observer_;
+};
+
+// "FRAME -> FOLDER (N camera(s), M points in the body frame, rig scale S, lidar FILE: NAME S
+// SOURCE +D%, ...)".
+std::string describe(const RigFrameResult& frame);
+
+}  // namespace omnipoint::predict
