@@ -74,14 +74,13 @@ TEST(SparseLabels, SyntheticDriveReadsBackOntoTheScenesSurfaces) {
             (std::vector<std::string>{train_drive + " 0 l", train_drive + " 1 l"}));
   EXPECT_EQ(summary.test_frames,
             (std::vector<std::string>{date + "/" + date + "_drive_0002_sync 0 l"}));
-  EXPECT_EQ(test::slurp(root / "train_files.txt"),
-            train_drive + " 0 l\n" + train_drive + " 1 l\n");
+  EXPECT_EQ(test::slurp(root / "train_files.txt"), train_drive + " 0 l\n" + train_drive + " 1 l\n");
 
   // The sweep of the first frame: points on the beams' rings, at the distances of the scene's
   // surfaces along their directions (cast again from the camera: the sensor sits there).
-  const at::Tensor sweep = read_sweep(root / train_drive / "velodyne_points" / "data" /
-                                      "0000000000.bin")
-                               .to(at::kDouble);
+  const at::Tensor sweep =
+      read_sweep(root / train_drive / "velodyne_points" / "data" / "0000000000.bin")
+          .to(at::kDouble);
   ASSERT_GT(sweep.size(0), 100);
   const at::Tensor velodyne = sweep.narrow(1, 0, 3);
   const at::Tensor range = velodyne.norm(2, {1});
@@ -92,10 +91,10 @@ TEST(SparseLabels, SyntheticDriveReadsBackOntoTheScenesSurfaces) {
   EXPECT_LT((azimuth / 2.0 - (azimuth / 2.0).round()).abs().max().item<double>(), 1e-3);
   EXPECT_TRUE(at::allclose(sweep.select(1, 3), at::full({sweep.size(0)}, 0.5, at::kDouble)));
   // Camera frame (x right, y down, z forward) from the Velodyne's (x forward, y left, z up).
-  const at::Tensor camera_points = at::stack(
-      {-velodyne.select(1, 1), -velodyne.select(1, 2), velodyne.select(1, 0)}, 1);
-  const data::synth::SynthSample scene = data::synth::synthesize(
-      options.scene, options.seed, options.camera, options.synth);
+  const at::Tensor camera_points =
+      at::stack({-velodyne.select(1, 1), -velodyne.select(1, 2), velodyne.select(1, 0)}, 1);
+  const data::synth::SynthSample scene =
+      data::synth::synthesize(options.scene, options.seed, options.camera, options.synth);
   const at::Tensor directions = (camera_points / range.unsqueeze(1)).unsqueeze(1);
   data::synth::RenderOptions ranges;
   ranges.shadows = ranges.ambient_occlusion = false;
@@ -106,8 +105,8 @@ TEST(SparseLabels, SyntheticDriveReadsBackOntoTheScenesSurfaces) {
 
   // The reader: the camera as written, the image as rendered, and on each labelled pixel the
   // distance of the nearest sweep point projecting into it.
-  const std::unique_ptr<data::Dataset> train = data::open_dataset(
-      "kitti-raw", {root.string(), false, (root / "train_files.txt").string()});
+  const std::unique_ptr<data::Dataset> train =
+      data::open_dataset("kitti-raw", {root.string(), false, (root / "train_files.txt").string()});
   ASSERT_EQ(train->size(), 2);
   const data::Sample sample = train->item({0, 0});
   EXPECT_EQ(sample.camera.to_spec(), options.camera.to_spec());
@@ -134,7 +133,8 @@ TEST(SparseLabels, SyntheticDriveReadsBackOntoTheScenesSurfaces) {
   const std::unique_ptr<data::Dataset> all = data::open_dataset("kitti-raw", {root.string()});
   ASSERT_EQ(all->size(), 3);
   double density = 0;
-  for (int64_t i = 0; i < 3; ++i) density += all->item({i, 0}).mask.to(at::kDouble).mean().item<double>();
+  for (int64_t i = 0; i < 3; ++i)
+    density += all->item({i, 0}).mask.to(at::kDouble).mean().item<double>();
   EXPECT_NEAR(summary.label_density, density / 3, 1e-9);
   EXPECT_GT(summary.label_density, 0.01);
   EXPECT_LT(summary.label_density, 0.15);
@@ -153,8 +153,7 @@ TEST(SparseLabels, SyntheticDriveReadsBackOntoTheScenesSurfaces) {
   EXPECT_NE(error_of((dir / "fisheye").string(), fisheye).find("PINHOLE"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "fisheye"));
   EXPECT_NE(error_of(root.string(), options).find("not an empty folder"), std::string::npos);
-  EXPECT_EQ(test::slurp(root / "train_files.txt"),
-            train_drive + " 0 l\n" + train_drive + " 1 l\n");
+  EXPECT_EQ(test::slurp(root / "train_files.txt"), train_drive + " 0 l\n" + train_drive + " 1 l\n");
 }
 
 // The command: `omnipoint synth --kitti-raw` writes a root the reader opens; a camera the layout
@@ -211,7 +210,8 @@ TEST(SparseLabels, NativeKittiRawSourceGivesSparseTrainingItems) {
     const at::Tensor condition = batch.condition_sparse_depth[k];
     EXPECT_EQ((condition > 0).sum().item<int64_t>(), 8) << k;
     EXPECT_FALSE(((condition > 0) & ~mask).any().item<bool>());
-    EXPECT_TRUE(at::equal(at::where(condition > 0, batch.targets.distance[k], condition), condition));
+    EXPECT_TRUE(
+        at::equal(at::where(condition > 0, batch.targets.distance[k], condition), condition));
   }
 }
 

@@ -60,8 +60,8 @@ std::string cam_to_cam_text(const camera::Camera& camera) {
     text += "T_" + id + ": " + numbers(t) + "\n";
     text += "S_rect_" + id + ": " + numbers(size) + "\n";
     text += "R_rect_" + id + ": " + numbers(identity) + "\n";
-    text += "P_rect_" + id + ": " +
-            numbers({fx, 0, u0, fx * t[0], 0, fy, v0, 0, 0, 0, 1, 0}) + "\n";
+    text +=
+        "P_rect_" + id + ": " + numbers({fx, 0, u0, fx * t[0], 0, fy, v0, 0, 0, 0, 1, 0}) + "\n";
   }
   return text;
 }
@@ -115,8 +115,9 @@ KittiRawDriveSummary write_kitti_raw_drive(const std::string& root,
                                            const KittiRawDriveOptions& options) {
   options.Check();
   if (fs::exists(root) && !(fs::is_directory(root) && fs::is_empty(root)))
-    throw std::invalid_argument(root + ": exists and is not an empty folder (a KITTI raw root "
-                                       "is written whole)");
+    throw std::invalid_argument(root +
+                                ": exists and is not an empty folder (a KITTI raw root "
+                                "is written whole)");
   io::StagedFolder staged{fs::path(root)};
   const fs::path date = staged.path() / kSynthDriveDate;
   fs::create_directories(date);
@@ -168,7 +169,8 @@ KittiRawDriveSummary write_kitti_raw_drive(const std::string& root,
       if (!out.flush()) throw std::runtime_error(sweep.string() + ": cannot write it");
     }
     summary.returns += velodyne_points.size(0);
-    density_sum += lidar_labels(camera_points, options.camera).mask.to(at::kDouble).mean().item<double>();
+    density_sum +=
+        lidar_labels(camera_points, options.camera).mask.to(at::kDouble).mean().item<double>();
     (training ? summary.train_frames : summary.test_frames)
         .push_back(std::string(kSynthDriveDate) + "/" + drive + " " + std::to_string(frame) + " l");
   }

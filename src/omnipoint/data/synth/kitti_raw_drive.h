@@ -48,7 +48,7 @@ struct KittiRawDriveOptions {
 
 struct KittiRawDriveSummary {
   std::vector<std::string> train_frames, test_frames;  // the split lists' lines
-  int64_t returns = 0;         // LiDAR points written, all sweeps
+  int64_t returns = 0;                                 // LiDAR points written, all sweeps
   double label_density = 0.0;  // the mean share of image pixels that get a label
 };
 
