@@ -10,12 +10,14 @@
 #include <iostream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "cli/commands.h"
 #include "cli/device.h"
 #include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
+#include "omnipoint/data/synth/kitti_raw_drive.h"
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/camera_file.h"
@@ -30,6 +32,12 @@ struct SynthArgs {
   int count = 1;
   int64_t per_split = 0;
   bool no_shadows = false, no_ao = false, core_files = false;
+  // --kitti-raw: a driving log with LiDAR sweeps (data/synth/kitti_raw_drive.h).
+  bool kitti_raw = false;
+  int64_t held_out = 0;
+  geometry::LidarPattern lidar;
+  std::vector<double> lidar_elevation{-24.9, 2.0};
+  double lidar_range = 120.0;
   std::string shard_text = "0/1";
   std::array<int64_t, 2> shard{0, 1};
   int threads = 0;  // 0: every core
@@ -83,6 +91,31 @@ void render_definition(const SynthArgs& args) {
   std::cerr << "\n";
 }
 
+// --count training frames and --held-out frames as a KITTI raw root with LiDAR sweeps.
+void render_kitti_raw(const SynthArgs& args) {
+  data::synth::KittiRawDriveOptions options;
+  options.camera = io::read_camera(args.camera);
+  options.scene = data::synth::parse_scene_kind(args.scene);
+  options.seed = args.seed;
+  options.frames = args.count;
+  options.held_out = args.held_out;
+  options.lidar = args.lidar;
+  options.lidar.min_elevation_deg = args.lidar_elevation[0];
+  options.lidar.max_elevation_deg = args.lidar_elevation[1];
+  options.lidar_range = args.lidar_range;
+  options.synth = synth_options(args);
+  const auto start = std::chrono::steady_clock::now();
+  const data::synth::KittiRawDriveSummary summary =
+      data::synth::write_kitti_raw_drive(args.out, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << args.out << "\n";
+  std::cerr << "synth: KITTI raw root " << args.out << ": " << summary.train_frames.size()
+            << " training and " << summary.test_frames.size() << " held-out frames, "
+            << summary.returns << " LiDAR returns, " << summary.label_density * 100
+            << " % of the pixels labelled, in " << seconds << " s\n";
+}
+
 // "K/N" with 0 <= K < N.
 std::array<int64_t, 2> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
@@ -129,9 +162,32 @@ void add_synth_command(CLI::App& app) {
   cmd->add_option("--device", args->device, "cpu | cuda")->capture_default_str();
   cmd->add_flag("--no-shadows", args->no_shadows, "skip shadow rays (faster)");
   cmd->add_flag("--no-ao", args->no_ao, "skip ambient-occlusion rays (faster)");
+  cmd->add_flag("--kitti-raw", args->kitti_raw,
+                "write --count training and --held-out frames of --scene through --camera (a "
+                "PINHOLE) as a KITTI raw root with LiDAR sweeps and split lists into --out "
+                "(docs/TRAINING.md)");
+  cmd->add_option("--held-out", args->held_out, "--kitti-raw: held-out frames (test_files.txt)")
+      ->capture_default_str();
+  cmd->add_option("--lidar-beams", args->lidar.beams, "--kitti-raw: the LiDAR's beams")
+      ->capture_default_str();
+  cmd->add_option("--lidar-elevation", args->lidar_elevation,
+                  "--kitti-raw: the beams' elevations MIN MAX in degrees (up positive)")
+      ->expected(2)
+      ->capture_default_str();
+  cmd->add_option("--lidar-azimuth-steps", args->lidar.azimuth_steps,
+                  "--kitti-raw: firings per revolution")
+      ->capture_default_str();
+  cmd->add_option("--lidar-range", args->lidar_range, "--kitti-raw: metres")->capture_default_str();
   add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
     use_threads(args->threads);
+    if (args->kitti_raw) {
+      if (!args->benchmark.empty())
+        throw std::invalid_argument("--kitti-raw and --benchmark: choose one");
+      if (args->camera.empty()) throw std::invalid_argument("--kitti-raw needs --camera");
+      render_kitti_raw(*args);
+      return;
+    }
     if (!args->benchmark.empty()) {
       args->shard = parse_shard(args->shard_text);
       render_definition(*args);

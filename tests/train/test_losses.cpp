@@ -204,6 +204,107 @@ TEST(Losses, LocalLossIsAffineInvariantPerPatchAndSeesLocalErrors) {
             local_loss(bumped, gt, rays, mask, global, 4, options, generator(3)).item<double>());
 }
 
+// Sparse labels (losses.h's rules): every term is finite on an item with 0.5 % of its pixels
+// labelled and on one without any label, and so are the gradients; with every pixel labelled a
+// sparse item costs what a dense one does, term by term.
+TEST(Losses, SparseLabelTermsAreFiniteAndDenseWhenEveryPixelIsLabelled) {
+  const int64_t size = 64;
+  const at::Tensor rays = pinhole_rays(3, size, size, 50.0);
+  const at::Tensor distance = plane_distance(rays);
+  // A prediction with local errors, so that every term has something to measure.
+  const at::Tensor wobble = 1.0 + 0.2 * at::sin(rays.select(-1, 0) * 23.0);
+  const auto output = [&] {
+    model::OmniPointOutput out = make_output(rays, (3.0 * distance * wobble).requires_grad_());
+    const at::Tensor turned = rays + 0.05 * at::cos(rays * 7.0);
+    out.rays = out.ray_raw = turned / turned.norm(2, {-1}, true);
+    out.mask_logits = at::full_like(distance, 0.3).requires_grad_();
+    out.log_metric_scale = at::full({3}, 0.2, kDouble).requires_grad_();
+    return out;
+  };
+  LossConfig config;
+  config.weights.gauge = 0.1;
+  config.local.levels = {4, 16};
+  config.local.min_points = 8;
+  const auto losses_for = [&](const at::Tensor& mask, bool sparse) {
+    LossTargets targets = make_targets(rays, at::where(mask, distance, at::zeros_like(distance)));
+    targets.mask = mask;
+    if (sparse) targets.sparse = at::ones({3}, at::kBool);
+    return compute_losses(output(), targets, config, generator(7));
+  };
+
+  // Every pixel labelled: the sparse rules give the dense values.
+  const at::Tensor full = at::ones({3, size, size}, at::kBool);
+  const Losses dense = losses_for(full, false), sparse_full = losses_for(full, true);
+  ASSERT_EQ(dense.terms.size(), 7u);
+  for (const auto& [name, term] : dense.terms) {
+    EXPECT_GT(term.abs().max().item<double>(), 0.0) << name;
+    EXPECT_TRUE(at::allclose(sparse_full.terms.at(name), term, 1e-12, 0)) << name;
+  }
+
+  // 0.5 % of the pixels (20 of 4096, drawn at random) on the first item, ring-like rows on the
+  // second (every 5th row, every 3rd column: labelled neighbours along a row only), none on
+  // the third.
+  at::Tensor mask = at::zeros({3, size * size}, at::kBool);
+  const at::Tensor picks =
+      at::randperm(size * size, generator(2), at::TensorOptions().dtype(at::kLong))
+          .narrow(0, 0, 20);
+  mask[0].index_fill_(0, picks, true);
+  mask = mask.view({3, size, size});
+  mask[1].index_put_({at::indexing::Slice(0, size, 5), at::indexing::Slice(0, size, 3)}, true);
+  mask[1].index_put_({at::indexing::Slice(0, size, 5), at::indexing::Slice(1, size, 3)}, true);
+  const Losses sparse = losses_for(mask, true);
+  for (const auto& [name, term] : sparse.terms)
+    EXPECT_TRUE(at::isfinite(term).all().item<bool>()) << name << ": " << term;
+  EXPECT_TRUE(at::isfinite(sparse.total).item<bool>());
+  // The point term is the mean over the labelled pixels: H·W / labelled times the dense rule.
+  const Losses dense_rule = losses_for(mask, false);
+  EXPECT_NEAR(sparse.terms.at("point")[0].item<double>(),
+              dense_rule.terms.at("point")[0].item<double>() * size * size / 20.0, 1e-12);
+  EXPECT_GT(sparse.terms.at("point")[0].item<double>(), 0.0);
+  // A sparse item's patches count like dense ones: more than the dense rule gives them.
+  EXPECT_GT(sparse.terms.at("local")[1].item<double>(),
+            dense_rule.terms.at("local")[1].item<double>());
+  // No labelled triangle on either sparse item: the normal term steps aside.
+  EXPECT_EQ(sparse.terms.at("normal")[0].item<double>(), 0.0);
+  EXPECT_EQ(sparse.terms.at("normal")[1].item<double>(), 0.0);
+  // The unlabelled item: only the camera's rays are left to learn from.
+  for (const auto& [name, term] : sparse.terms) {
+    if (name != "ray") {
+      EXPECT_EQ(term[2].item<double>(), 0.0) << name;
+    }
+  }
+  EXPECT_TRUE(std::isnan(sparse.scale[2].item<double>()));
+
+  // The gradients are finite too (no 0/0 reaches them).
+  model::OmniPointOutput out = output();
+  LossTargets targets = make_targets(rays, at::where(mask, distance, at::zeros_like(distance)));
+  targets.mask = mask;
+  targets.sparse = at::ones({3}, at::kBool);
+  compute_losses(out, targets, config, generator(7)).total.backward();
+  EXPECT_TRUE(at::isfinite(out.distance.grad()).all().item<bool>());
+  EXPECT_TRUE(at::isfinite(out.mask_logits.grad()).all().item<bool>());
+  EXPECT_TRUE(at::isfinite(out.log_metric_scale.grad()).all().item<bool>());
+}
+
+// The normal term of a sparse item is the mean over its labelled cells: a lone labelled 2×2
+// cell costs what a fully labelled image of such cells does.
+TEST(Losses, SparseNormalTermAveragesOverTheLabelledCells) {
+  const at::Tensor x = at::arange(6, kDouble).view({1, 6}).expand({6, 6});
+  const at::Tensor y = at::arange(6, kDouble).view({6, 1}).expand({6, 6});
+  const at::Tensor gt = at::stack({x, y, at::ones_like(x)}, -1).unsqueeze(0);
+  const at::Tensor pred = at::stack({x, y, 1.0 + x}, -1).unsqueeze(0);  // tilted 45°
+  const at::Tensor full = at::ones({1, 6, 6}, at::kBool);
+  at::Tensor one_cell = at::zeros({1, 6, 6}, at::kBool);
+  one_cell.index_put_({0, at::indexing::Slice(2, 4), at::indexing::Slice(2, 4)}, true);
+  const at::Tensor sparse = at::ones({1}, at::kBool);
+  const double dense_value = normal_loss(pred, gt, full).item<double>();
+  EXPECT_GT(dense_value, 0.0);
+  EXPECT_NEAR(normal_loss(pred, gt, one_cell, sparse).item<double>(), dense_value, 1e-12);
+  // The dense rule averages the one cell over all 25.
+  EXPECT_NEAR(normal_loss(pred, gt, one_cell).item<double>(), dense_value / 25.0, 1e-12);
+  EXPECT_EQ(normal_loss(pred, gt, at::zeros_like(full), sparse).item<double>(), 0.0);
+}
+
 // fit_points: the exact fit on a random subset of each patch. An affine copy of the GT is
 // still aligned exactly (any 3 points determine it); on a bumpy prediction the loss moves a
 // little from the all-points fit, and a subset at least the window's size changes nothing.

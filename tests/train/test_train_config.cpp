@@ -75,7 +75,7 @@ std::vector<fs::path> shipped_configs() {
 
 TEST(TrainConfig, EveryShippedConfigLoadsAndReadsBackFromItsJson) {
   const std::vector<fs::path> configs = shipped_configs();
-  EXPECT_EQ(configs.size(), 28u);
+  EXPECT_EQ(configs.size(), 30u);
   for (const fs::path& path : configs) {
     SCOPED_TRACE(path.string());
     const TrainConfig config = TrainConfig::load(path.string());
@@ -107,6 +107,30 @@ TEST(TrainConfig, DerivedConfigsDifferFromTheirBaseInTheirDocumentedKeys) {
       {"gpu/omnipoint_gpu.json",
        {"checkpoint_every", "data.batch_size", "data.datasets", "device", "eval_every", "log_every",
         "model", "output_dir", "precision", "stages", "threads"}},
+      {"finetune_rig.json", {"augment.p2a",
+                             "checkpoint_every",
+                             "data.batch_size",
+                             "data.datasets",
+                             "data.eval_datasets",
+                             "data.image_size",
+                             "data.num_tokens",
+                             "device",
+                             "eval_at_start",
+                             "eval_batches",
+                             "eval_every",
+                             "init.from",
+                             "init.path",
+                             "log_every",
+                             "loss.weights.mask",
+                             "model",
+                             "output_dir",
+                             "precision",
+                             "stages",
+                             "threads"}},
+      {"sparse_lidar_demo.json",
+       {"checkpoint_every", "data.batch_size", "data.datasets", "data.eval_datasets",
+        "data.image_size", "data.num_tokens", "device", "ema.decay", "eval_batches", "eval_every",
+        "log_every", "output_dir", "precision", "stages", "threads"}},
       {"ablations/s1_base_seed1.json", {"output_dir", "seed"}},
       {"ablations/s1_base_seed2.json", {"output_dir", "seed"}},
       {"ablations/s1_disjoint.json", {"loss.point_loss", "output_dir"}},
@@ -217,7 +241,8 @@ TEST(TrainConfig, ErrorsNameTheKeyPath) {
   EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["synth"]["cameras"] = json::array(); }),
             "training config: data.datasets[0].synth.cameras: must not be empty");
   EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["folders"] = "pool"; }),
-            "training config: data.datasets[0]: needs exactly one of \"synth\" or \"folders\"");
+            "training config: data.datasets[0]: needs exactly one of \"synth\", \"folders\" or "
+            "\"format\"");
   EXPECT_EQ(changed([](json& c) {
               c["data"]["datasets"][0]["image_size"] = {28, 1};
             }),
@@ -239,6 +264,104 @@ TEST(TrainConfig, ErrorsNameTheKeyPath) {
       changed([](json& c) { c["data"]["datasets"][0]["synth"]["cameras"][1] = "FISHEYE 28 28"; });
   EXPECT_EQ(camera.rfind("training config: data.datasets[0].synth.cameras[1]: ", 0), 0u) << camera;
   EXPECT_EQ(camera.find('\n'), std::string::npos);
+}
+
+// A dataset in its native layout: read and written through the source table (the folders form
+// stays as it was written), held-out sources beside the training ones, and one error line
+// naming the key for each mistake.
+TEST(TrainConfig, NativeSourcesRoundTripAndBadKeysNameTheirPath) {
+  json config = tiny_config();
+  config["data"]["datasets"].push_back(
+      {{"weight", 3},
+       {"format", "kitti-raw"},
+       {"root", "data/drives"},
+       {"split", "data/drives/train_files.txt"},
+       {"options", {{"camera", "image_03"}, {"principal_point", "corner"}}},
+       {"image_size", {64, 20}}});
+  config["data"]["datasets"].push_back({{"folders", "data/pool"}});
+  config["data"]["datasets"].push_back({{"format", "folders"}, {"root", "data/pool"}});
+  config["data"]["eval_datasets"] = {
+      {{"format", "kitti-raw"}, {"root", "data/drives"}, {"split", "data/drives/test.txt"}}};
+  config["eval_at_start"] = true;
+  const TrainConfig read = TrainConfig::from_json(config);
+  ASSERT_EQ(read.datasets.size(), 4u);
+  const DatasetSource& native = read.datasets[1];
+  EXPECT_FALSE(native.synth);
+  EXPECT_EQ(native.format, "kitti-raw");
+  EXPECT_EQ(native.root, "data/drives");
+  EXPECT_EQ(native.split, "data/drives/train_files.txt");
+  EXPECT_EQ(native.options, (std::map<std::string, std::string>{{"camera", "image_03"},
+                                                                {"principal_point", "corner"}}));
+  EXPECT_EQ(native.weight, 3.0);
+  EXPECT_EQ(native.width, 64);
+  EXPECT_EQ(native.height, 20);
+  EXPECT_EQ(read.datasets[2].folders, "data/pool");
+  EXPECT_TRUE(read.datasets[2].format.empty());
+  EXPECT_EQ(read.datasets[3].format, "folders");
+  ASSERT_EQ(read.eval_datasets.size(), 1u);
+  EXPECT_EQ(read.eval_datasets[0].split, "data/drives/test.txt");
+  EXPECT_EQ(read.eval_datasets[0].width, 28);  // data.image_size
+  EXPECT_TRUE(read.eval_at_start);
+
+  const json written = read.to_json();
+  EXPECT_EQ(written["data"]["datasets"][1],
+            json::parse(R"({"weight": 3.0, "format": "kitti-raw", "root": "data/drives",
+                            "split": "data/drives/train_files.txt",
+                            "options": {"camera": "image_03", "principal_point": "corner"},
+                            "image_size": [64, 20], "labels": true})"));
+  EXPECT_EQ(written["data"]["datasets"][2],
+            json::parse(R"({"weight": 1.0, "folders": "data/pool", "image_size": [28, 28],
+                            "labels": true})"));
+  EXPECT_EQ(TrainConfig::from_json(written).to_json(), written);
+  // Without held-out sources the key is left out, as before it existed.
+  EXPECT_FALSE(TrainConfig::from_json(tiny_config()).to_json()["data"].contains("eval_datasets"));
+
+  const auto changed = [](const std::function<void(json&)>& change) {
+    json c = tiny_config();
+    c["data"]["datasets"][0] = {{"format", "kitti-raw"}, {"root", "data/drives"}};
+    change(c);
+    return error_of(c);
+  };
+  EXPECT_EQ(changed([](json&) {}), "");
+  const std::string unknown =
+      changed([](json& c) { c["data"]["datasets"][0]["format"] = "kitti_raw"; });
+  EXPECT_EQ(unknown.rfind("training config: data.datasets[0].format: unknown dataset format "
+                          "\"kitti_raw\" (known: ",
+                          0),
+            0u)
+      << unknown;
+  EXPECT_NE(unknown.find("kitti-raw"), std::string::npos) << unknown;
+  EXPECT_EQ(unknown.find('\n'), std::string::npos);
+  EXPECT_EQ(changed([](json& c) {
+              c["data"]["datasets"][0]["options"] = {{"cam", "image_02"}};
+            }),
+            "training config: data.datasets[0].options.cam: not an option of format "
+            "\"kitti-raw\" (its options: camera, principal_point)");
+  EXPECT_EQ(changed([](json& c) {
+              c["data"]["datasets"][0]["options"] = {{"camera", 2}};
+            }),
+            "training config: data.datasets[0].options.camera: expected a string, got 2");
+  EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0].erase("root"); }),
+            "training config: data.datasets[0].root: required with \"format\" (the dataset's "
+            "root folder)");
+  EXPECT_EQ(changed([](json& c) {
+              c["data"]["datasets"][0] = {{"folders", "pool"}, {"split", "a.txt"}};
+            }),
+            "training config: data.datasets[0].split: only with \"format\"");
+  EXPECT_EQ(changed([](json& c) { c["data"]["datasets"][0]["folders"] = "pool"; }),
+            "training config: data.datasets[0]: needs exactly one of \"synth\", \"folders\" or "
+            "\"format\"");
+  EXPECT_EQ(
+      changed([](json& c) {
+        c["data"]["eval_datasets"] = {{{"format", "kitti-raw"}, {"root", "d"}, {"labels", false}}};
+      }),
+      "training config: data.eval_datasets[0].labels: an evaluation source needs labels");
+  EXPECT_EQ(changed([](json& c) {
+              c["data"]["eval_datasets"] = {{{"format", "moge"}, {"root", "d"}, {"optoins", {}}}};
+            }),
+            "training config: data.eval_datasets[0].optoins: unknown key (expected \"weight\", "
+            "\"synth\", \"folders\", \"format\", \"root\", \"split\", \"options\", "
+            "\"image_size\" or \"labels\")");
 }
 
 class TrainConfigFiles : public ::testing::Test {

@@ -170,6 +170,50 @@ TEST(TrainingSession, LogsBenchmarkScoresAndDrawsCurves) {
   fs::remove_all(root);
 }
 
+// eval_at_start scores the starting weights (a step-0 record); data.eval_datasets are what the
+// evaluations score instead of the training sources' stream, opened with the run.
+TEST(TrainingSession, EvaluatesTheStartAndTheHeldOutSources) {
+  const std::string root = temp_dir("held_out");
+  const auto evaluations = [](const std::string& log) {
+    std::map<int64_t, double> points_rel;
+    std::istringstream lines(io::read_file(log));
+    for (std::string line; std::getline(lines, line);) {
+      const json record = json::parse(line);
+      if (record.contains("eval"))
+        points_rel[record["step"].get<int64_t>()] = record["eval"].at("points_rel").get<double>();
+    }
+    return points_rel;
+  };
+  json config = tiny_config(root + "/training_sources");
+  config["eval_every"] = 2;
+  config["eval_batches"] = 1;
+  config["eval_at_start"] = true;
+  run_session(config);
+  const std::map<int64_t, double> own = evaluations(root + "/training_sources/log.jsonl");
+  EXPECT_EQ(own.size(), 3u);  // steps 0, 2 and 4 of 5
+  EXPECT_EQ(own.count(0), 1u);
+
+  config["output_dir"] = root + "/held_out";
+  config["data"]["eval_datasets"] = {
+      {{"synth", {{"scenes", {"object"}}, {"cameras", {"PINHOLE 28 28 30 30 14 14"}}}}}};
+  run_session(config);
+  const std::map<int64_t, double> held_out = evaluations(root + "/held_out/log.jsonl");
+  ASSERT_EQ(held_out.size(), 3u);
+  EXPECT_NE(held_out.at(0), own.at(0));  // other items, the same starting weights
+  EXPECT_EQ(losses_by_step(root + "/held_out/log.jsonl"),
+            losses_by_step(root + "/training_sources/log.jsonl"));  // training untouched
+
+  config["data"]["eval_datasets"] = {{{"folders", root + "/missing"}}};
+  const TrainConfig missing = TrainConfig::from_json(config);
+  try {
+    Trainer trainer(missing, tiny_model(missing));
+    ADD_FAILURE() << "a missing held-out folder was not an error";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("missing"), std::string::npos) << error.what();
+  }
+  fs::remove_all(root);
+}
+
 // Progress every log_every steps and at the session's last step, with the rate and the time
 // left; the end names the weights; a session stopped early ends without them.
 TEST(TrainingSession, TellsItsObserverTheProgressAndTheEnd) {

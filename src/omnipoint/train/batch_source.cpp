@@ -26,6 +26,12 @@ constexpr uint64_t kTokenStream = 0x746f6b656e73ULL;   // separates the per-step
 constexpr uint64_t kBucketStream = 0x6275636b6574ULL;  // and the per-step bucket draw
 
 std::unique_ptr<data::Dataset> open_source(const DatasetSource& source) {
+  if (!source.format.empty()) {
+    data::DatasetLocation location{source.root};
+    location.split = source.split;
+    location.options = source.options;
+    return data::open_dataset(source.format, location);
+  }
   if (!source.synth) return data::open_dataset("folders", {source.folders});
   std::vector<camera::Camera> cameras;  // parsed at load (train_config.h), here at the bucket size
   for (camera::Camera camera : source.synth_source.cameras) {
@@ -38,6 +44,7 @@ std::unique_ptr<data::Dataset> open_source(const DatasetSource& source) {
 }
 
 std::string source_name(const DatasetSource& source) {
+  if (!source.format.empty()) return source.format + " " + source.root;
   return source.synth ? "synth" : source.folders;
 }
 

@@ -30,8 +30,11 @@
 // image (image, labels and the rays' x mirrored together) for half of the items
 // (training_batch.h makes the item; its draws come after the source's and the sample's).
 //
-// The sources are datasets (data/dataset.h): a folder source is the "folders" format, a
-// synthetic one data::synth::SynthDataset. A bad sample (a folder that cannot be read or fails
+// The sources are datasets (data/dataset.h): a folder source is the "folders" format, a native
+// one ("format", "root", "split", "options") the reader of its format (data::open_dataset), a
+// synthetic one data::synth::SynthDataset. Items with sparse labels (Sample::sparse_labels:
+// LiDAR) leave their unlabelled pixels unknown, not sky, and are flagged for the losses'
+// sparse rules (losses.h). A bad sample (a folder that cannot be read or fails
 // validation) does not stop a run: it is skipped with one warning (take_warnings) the first
 // time it is met, counted by reason (skipped_samples), and the item draws another sample of the
 // same source from its own generator, so the batch stays a function of (seed, step, rank)

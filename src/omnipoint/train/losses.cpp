@@ -113,8 +113,16 @@ at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask) {
   return at::where(count > 0, mean.square(), at::zeros_like(mean));
 }
 
+at::Tensor sparse_label_factor(const at::Tensor& mask, const at::Tensor& sparse) {
+  const auto options = at::TensorOptions().dtype(at::kDouble).device(mask.device());
+  if (!sparse.defined()) return at::ones({mask.size(0)}, options);
+  const double pixels = static_cast<double>(mask.size(1) * mask.size(2));
+  const at::Tensor labelled = mask.sum({1, 2}).to(at::kDouble).clamp_min(1.0);
+  return at::where(sparse.to(mask.device()), pixels / labelled, at::ones_like(labelled));
+}
+
 at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
-                       const at::Tensor& mask) {
+                       const at::Tensor& mask, const at::Tensor& sparse) {
   check_map(pred_points, 4, "predicted points");
   const int64_t height = pred_points.size(1), width = pred_points.size(2);
   using at::indexing::Slice;
@@ -149,13 +157,23 @@ at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_point
     loss = loss + masks[k].to(loss.scalar_type()) *
                       (smooth(angle.clamp(min_angle, max_angle), beta) - floor);
   }
-  return loss.mean({1, 2}) / (4.0 * static_cast<double>(std::max(height, width)));
+  at::Tensor per_item = loss.mean({1, 2});
+  if (sparse.defined()) {
+    // A sparse item: the mean over its cells with a labelled triangle (see the top of losses.h).
+    const at::Tensor labelled_cells =
+        (masks[0] | masks[1] | masks[2] | masks[3]).sum({1, 2}).to(loss.scalar_type());
+    const double cells = static_cast<double>((height - 1) * (width - 1));
+    per_item = per_item * at::where(sparse.to(loss.device()), cells / labelled_cells.clamp_min(1.0),
+                                    at::ones_like(labelled_cells));
+  }
+  return per_item / (4.0 * static_cast<double>(std::max(height, width)));
 }
 
 at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
                       const at::Tensor& gt_rays, const at::Tensor& mask,
                       const at::Tensor& global_scale, int64_t level,
-                      const LocalLossOptions& options, at::Generator generator) {
+                      const LocalLossOptions& options, at::Generator generator,
+                      const at::Tensor& sparse) {
   check_map(pred_points, 4, "predicted points");
   if (level <= 0) throw std::invalid_argument("local loss: the level must be positive");
   const int64_t batch = pred_points.size(0), height = pred_points.size(1),
@@ -211,7 +229,17 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
 
   const at::Tensor gt_patch = gather(gt_points);      // (P,n,3)
   const at::Tensor pred_patch = gather(pred_points);  // (P,n,3)
-  at::Tensor patch_mask = inside.reshape({num_patches, -1}) & gather(mask).squeeze(-1);
+  const at::Tensor window = inside.reshape({num_patches, -1});
+  at::Tensor patch_mask = window & gather(mask).squeeze(-1);
+  // A sparse item's patch counts as a dense one would: divided by its window's label density
+  // (at least the anchor's pixel is labelled).
+  at::Tensor density_factor = at::ones({num_patches}, float_options);
+  if (sparse.defined()) {
+    const at::Tensor density = patch_mask.sum(1).to(pred_points.scalar_type()) /
+                               window.sum(1).to(pred_points.scalar_type());
+    density_factor = at::where(sparse.to(pred_points.device()).index_select(0, item),
+                               1.0 / density.clamp_min(1e-12), density_factor);
+  }
   patch_mask =
       patch_mask & ((gt_patch - gt_anchor.unsqueeze(1)).norm(2, {-1}) <= radius_3d.unsqueeze(1));
   const at::Tensor enough = patch_mask.sum(1) >= options.min_points;
@@ -255,7 +283,8 @@ at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points
       patch_mask.to(pred_points.scalar_type()) /
       at::maximum(gt_patch.norm(2, {-1}), 0.1 * harmonic.index_select(0, item).unsqueeze(1));
   const at::Tensor aligned = scale.view({-1, 1, 1}) * pred_patch + shift.unsqueeze(1);
-  const at::Tensor per_patch = ((aligned - gt_patch).abs() * weight.unsqueeze(-1)).mean({1, 2});
+  const at::Tensor per_patch =
+      ((aligned - gt_patch).abs() * weight.unsqueeze(-1)).mean({1, 2}) * density_factor;
   return loss.index_add(0, item, per_patch) / static_cast<double>(options.patches_per_item);
 }
 
@@ -287,6 +316,8 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
   const bool xyz = !output.ray_raw.defined();
   const PointLoss kind = xyz ? PointLoss::kNaive : config.point_loss;
   const LossWeights& w = config.weights;
+  const at::Tensor sparse =
+      targets.sparse.defined() ? targets.sparse.to(mask.device(), at::kBool) : at::Tensor();
 
   // The scale-invariant point map the geometric terms see (losses.h).
   const at::Tensor own_points = output.distance.unsqueeze(-1) * output.rays;
@@ -335,10 +366,13 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
   };
   if (w.point != 0.0) {
     const at::Tensor weight = inverse_distance_weight(gt_points, mask);
-    add("point", w.point,
+    const at::Tensor point =
         kind == PointLoss::kDisjoint
             ? aligned_l1_loss(output.distance, gt_distance, weight, losses.scale)
-            : aligned_l1_loss(points, gt_points, weight, losses.scale));
+            : aligned_l1_loss(points, gt_points, weight, losses.scale);
+    add("point", w.point,
+        sparse.defined() ? point * sparse_label_factor(mask, sparse).to(point.scalar_type())
+                         : point);
   }
   if (w.ray != 0.0 && !xyz)
     add("ray", w.ray, ray_loss(output.rays, gt_rays, gt_rays.abs().sum(-1) > 0));
@@ -346,13 +380,13 @@ Losses compute_losses(const model::OmniPointOutput& output, const LossTargets& t
     add("metric", w.metric,
         metric_scale_loss(output.log_metric_scale, losses.scale,
                           targets.metric.to(output.distance.device())));
-  if (w.normal != 0.0) add("normal", w.normal, normal_loss(points, gt_points, mask));
+  if (w.normal != 0.0) add("normal", w.normal, normal_loss(points, gt_points, mask, sparse));
   if (w.gauge != 0.0) add("gauge", w.gauge, gauge_loss(output.distance, mask));
   if (w.local != 0.0) {
     at::Tensor local = at::zeros_like(total);
     for (const int64_t level : config.local.levels)
       local = local + local_loss(points, gt_points, gt_rays, mask, losses.scale, level,
-                                 config.local, generator);
+                                 config.local, generator, sparse);
     add("local", w.local, local);
   }
   if (w.mask != 0.0) {

@@ -15,6 +15,23 @@
 // Shapes: point maps and rays (B,H,W,3), distances and masks (B,H,W), scales (B). Any
 // floating dtype and device (taken from the inputs).
 //
+// Sparse labels (LossTargets::sparse: LiDAR or SfM samples, ~0.1–3 % of the pixels): an
+// unlabelled pixel of such an item is unknown, not empty, so its labelled pixels stand for the
+// whole image, and the terms that need neighbourhoods use the labels that exist or step aside:
+//   point     the mean over the labelled pixels (the dense rule's H·W mean times H·W / labelled)
+//   ray       unchanged: the rays come from the camera, dense on every item
+//   metric    unchanged: s* fitted on the labelled pixels (no s*, no term)
+//   gauge     unchanged: already a mean over the labelled pixels
+//   normal    the mean over the 2×2 cells holding a labelled triangle (three labelled corners)
+//             instead of over all cells; 0 when there is none
+//   local     each patch's mean times (in-image window pixels / labelled ones): the patch counts
+//             as a dense one would; patches with fewer than min_points labelled points in their
+//             ball are skipped as on dense items, and an item without any gives 0
+//   mask      labelled pixels positive, no negatives (the sample set no sky: the batch leaves
+//             mask_negative empty); the H·W mean as on dense items
+// With every pixel labelled each rule gives the dense value, and no rule divides by a count
+// that can be 0 (an item without labels gives 0 in every term but ray).
+//
 // Point-loss variants (the paper's ablation, Tab. "Point Loss Mechanisms"), and the point map
 // that L_point, L_local and L_normal see:
 //   kDecoupled  (the paper's)   P̃ = d̂ · r (GT ray);  L_point = Σ‖s*·d̂·r − d·r‖₁ · w
@@ -85,6 +102,7 @@ struct LossTargets {
   at::Tensor mask;           // (B,H,W) bool: labelled geometry
   at::Tensor mask_negative;  // (B,H,W) bool: known to hold no geometry (sky); for L_mask
   at::Tensor metric;         // (B) bool: the distances are metric (L_metric)
+  at::Tensor sparse;         // (B) bool: sparse labels (the rules above); undefined: all dense
 };
 
 struct Losses {
@@ -131,8 +149,9 @@ at::Tensor gauge_loss(const at::Tensor& distance, const at::Tensor& mask);
 // every 2×2 pixel cell with three labelled corners, clamped to [1°, 90°], smoothed (Huber,
 // β = 3°), averaged over the cells and divided by 4·max(H, W). Scale-invariant. The constant
 // the clamp leaves at angle 0 is subtracted (zero for a perfect prediction; MoGe's gradients).
+// `sparse` (B) bool, may be undefined: those items average over their labelled cells.
 at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
-                       const at::Tensor& mask);
+                       const at::Tensor& mask, const at::Tensor& sparse = {});
 
 // MoGe's local loss at one level: `patches_per_item` anchors drawn uniformly among the labelled
 // pixels, window radius ceil(0.5/level · diagonal) pixels, kept are the labelled pixels within
@@ -141,11 +160,17 @@ at::Tensor normal_loss(const at::Tensor& pred_points, const at::Tensor& gt_point
 // the exact L1 scale + shift fit (constant for the gradient; over at most options.fit_points of
 // the patch's points when that is > 0, drawn with `generator`), rejected when that scale is not
 // within (0.1, 10)× `global_scale`, weighted by 1 / max(‖gt‖, 0.1 · the item's harmonic mean).
-// Returns the sum over the item's patches divided by patches_per_item.
+// Returns the sum over the item's patches divided by patches_per_item. `sparse` (B) bool, may
+// be undefined: those items' patches are divided by their window's label density.
 at::Tensor local_loss(const at::Tensor& pred_points, const at::Tensor& gt_points,
                       const at::Tensor& gt_rays, const at::Tensor& mask,
                       const at::Tensor& global_scale, int64_t level,
-                      const LocalLossOptions& options, at::Generator generator);
+                      const LocalLossOptions& options, at::Generator generator,
+                      const at::Tensor& sparse = {});
+
+// Per item (B): H·W / its labelled pixels (at least 1) where `sparse`, 1 elsewhere; the
+// factor that turns an H·W mean into a mean over the labelled pixels.
+at::Tensor sparse_label_factor(const at::Tensor& mask, const at::Tensor& sparse);
 
 // Binary cross-entropy of the mask logits against positive (1) and negative (0) pixels, mean
 // over H·W; pixels that are neither contribute nothing.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "omnipoint/data/dataset.h"
 #include "omnipoint/io/camera_file.h"
 #include "omnipoint/util/config.h"
 
@@ -86,11 +87,56 @@ const ConfigTable<SynthSource>& synth_table() {
   return table;
 }
 
+// A JSON object of strings (a format's options) as a map.
+util::ConfigCodec<std::map<std::string, std::string>> text_map_codec() {
+  util::ConfigCodec<std::map<std::string, std::string>> codec;
+  codec.read = [](const json& value, const ConfigScope& scope) {
+    std::map<std::string, std::string> out;
+    for (const std::string& key : util::config_json::object_keys(value, scope))
+      out[key] = util::config_json::read_text(value.at(key), scope.key(key));
+    return out;
+  };
+  codec.write = [](const std::map<std::string, std::string>& in, json& out) {
+    util::config_json::make_object(out);
+    for (const auto& [key, text] : in) out[key] = text;
+  };
+  return codec;
+}
+
+// "a, b, c" (or "none").
+std::string listed(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text.empty() ? std::string("none") : text;
+}
+
+// A native source's format and options, checked against the registered readers at load, so
+// that a typo fails before any data is opened.
+void check_native_source(const DatasetSource& source, const ConfigScope& scope) {
+  if (source.format.empty()) return;
+  if (source.root.empty())
+    scope.key("root").fail("required with \"format\" (the dataset's root folder)");
+  for (const data::DatasetFormat& format : data::dataset_format_list()) {
+    if (format.name != source.format) continue;
+    std::vector<std::string> known;
+    for (const auto& option : format.options) known.push_back(option.first);
+    for (const auto& option : source.options)
+      if (format.options.count(option.first) == 0)
+        scope.key("options")
+            .key(option.first)
+            .fail("not an option of format \"" + source.format +
+                  "\" (its options: " + listed(known) + ")");
+    return;
+  }
+  scope.key("format").fail("unknown dataset format \"" + source.format +
+                           "\" (known: " + listed(data::dataset_formats()) + ")");
+}
+
 const ConfigTable<DatasetSource>& source_table() {
   static const ConfigTable<DatasetSource> table = [] {
     ConfigTable<DatasetSource> t;
     t.field("weight", &DatasetSource::weight, "its share of the items").positive();
-    t.exactly_one_of({"synth", "folders"});
+    t.exactly_one_of({"synth", "folders", "format"});
     t.custom(
          "synth",
          [](const json& value, DatasetSource& source, const ConfigScope& scope) {
@@ -106,13 +152,54 @@ const ConfigTable<DatasetSource>& source_table() {
          "scenes rendered on the fly")
         .written_if([](const DatasetSource& source) { return source.synth; });
     t.field("folders", &DatasetSource::folders, "a directory of sample folders")
-        .written_if([](const DatasetSource& source) { return !source.synth; });
+        .written_if(
+            [](const DatasetSource& source) { return !source.synth && source.format.empty(); });
+    const auto native = [](const DatasetSource& source) { return !source.format.empty(); };
+    const char* const kWithFormat = "\"format\"";
+    t.field("format", &DatasetSource::format, "a dataset format (omnipoint data formats)")
+        .written_if(native);
+    t.field("root", &DatasetSource::root, "the dataset's root folder").when(native, kWithFormat);
+    t.field("split", &DatasetSource::split, "the format's split name or a split-list file")
+        .when(native, kWithFormat)
+        .written_if([](const DatasetSource& source) { return !source.split.empty(); });
+    t.field("options", &DatasetSource::options, text_map_codec(), "the format's options")
+        .when(native, kWithFormat)
+        .written_if([](const DatasetSource& source) { return !source.options.empty(); });
     image_size_field(t, &DatasetSource::width, &DatasetSource::height,
                      "this source's aspect bucket (default: data.image_size)");
     t.field("labels", &DatasetSource::labelled, "false: its items enter only through A2P");
+    t.rule(check_native_source);
     return t;
   }();
   return table;
+}
+
+// A list of sources ("datasets", "eval_datasets"); each bucket defaults to data.image_size.
+ConfigTable<TrainConfig>::Custom source_list_field(
+    ConfigTable<TrainConfig>& data, const std::string& key,
+    std::vector<DatasetSource> TrainConfig::*member) {
+  return data.custom(
+      key,
+      [member](const json& value, TrainConfig& c, const ConfigScope& scope) {
+        const std::size_t count = util::config_json::array_size(value, scope);
+        (c.*member).clear();
+        for (std::size_t i = 0; i < count; ++i) {
+          DatasetSource source;  // its bucket defaults to data.image_size, read above
+          source.width = c.width;
+          source.height = c.height;
+          source_table().read_into(util::config_json::array_item(value, i), source, scope.index(i));
+          (c.*member).push_back(std::move(source));
+        }
+      },
+      [member](const TrainConfig& c, json& out) {
+        util::config_json::make_array(out);
+        for (const DatasetSource& source : c.*member)
+          source_table().write(source, util::config_json::append(out));
+      },
+      [member](const TrainConfig& c, const ConfigScope& scope) {
+        for (std::size_t i = 0; i < (c.*member).size(); ++i)
+          source_table().check((c.*member)[i], scope.index(i));
+      });
 }
 
 const ConfigTable<StageConfig>& stage_table() {
@@ -230,32 +317,12 @@ const ConfigTable<TrainConfig>& train_table() {
         .check([](const std::array<int64_t, 2>& n) { return n[0] >= 1 && n[0] <= n[1]; },
                "must be [min, max], 1 <= min <= max");
     const char* const kNoSources = "expected a non-empty array of data sources";
-    data.custom(
-            "datasets",
-            [](const json& value, TrainConfig& c, const ConfigScope& scope) {
-              const std::size_t count = util::config_json::array_size(value, scope);
-              c.datasets.clear();
-              for (std::size_t i = 0; i < count; ++i) {
-                DatasetSource source;  // its bucket defaults to data.image_size, read above
-                source.width = c.width;
-                source.height = c.height;
-                source_table().read_into(util::config_json::array_item(value, i), source,
-                                         scope.index(i));
-                c.datasets.push_back(std::move(source));
-              }
-            },
-            [](const TrainConfig& c, json& out) {
-              util::config_json::make_array(out);
-              for (const DatasetSource& source : c.datasets)
-                source_table().write(source, util::config_json::append(out));
-            },
-            [kNoSources](const TrainConfig& c, const ConfigScope& scope) {
-              if (c.datasets.empty()) scope.fail(kNoSources);
-              for (std::size_t i = 0; i < c.datasets.size(); ++i)
-                source_table().check(c.datasets[i], scope.index(i));
-            })
-        .required(kNoSources);
-
+    source_list_field(data, "datasets", &TrainConfig::datasets).required(kNoSources);
+    data.rule([kNoSources](const TrainConfig& c, const ConfigScope& scope) {
+      if (c.datasets.empty()) scope.key("datasets").fail(kNoSources);
+    });
+    source_list_field(data, "eval_datasets", &TrainConfig::eval_datasets)
+        .written_if([](const TrainConfig& c) { return !c.eval_datasets.empty(); });
     ConfigTable<TrainConfig>& conditions = t.section("conditions", "from stage 2 on");
     conditions.field("probability", &TrainConfig::condition_probability).range(0.0, 1.0);
     conditions.field("sparse_ratio", &TrainConfig::sparse_ratio)
@@ -293,6 +360,7 @@ const ConfigTable<TrainConfig>& train_table() {
     t.field("eval_every", &TrainConfig::eval_every, "0: only at the end").at_least(0);
     t.field("eval_batches", &TrainConfig::eval_batches).at_least(1);
     t.field("max_nonfinite_steps", &TrainConfig::max_nonfinite_steps).at_least(1);
+    t.field("eval_at_start", &TrainConfig::eval_at_start, "also evaluate before the first step");
 
     t.rule([](const TrainConfig& c, const ConfigScope& scope) {
       const std::string from = init_name(c.init_from);
@@ -329,6 +397,13 @@ const ConfigTable<TrainConfig>& train_table() {
       }
       if (!any_labelled)
         scope.key("data").key("datasets").fail("needs at least one labelled source");
+      for (std::size_t i = 0; i < c.eval_datasets.size(); ++i)
+        if (!c.eval_datasets[i].labelled)
+          scope.key("data")
+              .key("eval_datasets")
+              .index(i)
+              .key("labels")
+              .fail("an evaluation source needs labels");
     });
     return t;
   }();

@@ -15,7 +15,11 @@
 //            "datasets": [{"weight": 1, "synth": {"scenes": ["indoor", ...], "cameras": [SPEC, ...]}},
 //                         {"weight": 1, "folders": DIR,     DIR holds sample folders (data/sample.h)
 //                          "image_size": [W, H],            this source's bucket (default: data's)
-//                          "labels": true}]},               false: unlabelled, enters only by A2P
+//                          "labels": true},                 false: unlabelled, enters only by A2P
+//                         {"weight": 1, "format": "kitti-raw", "root": DIR,   a dataset in its
+//                          "split": S, "options": {"camera": "image_02"}}],   native layout
+//            "eval_datasets": [SOURCE, ...]},   held-out sources the in-run evaluation scores
+//                                               (default: the training sources' own stream)
 //   "conditions": {"probability": 0.9, "sparse_ratio": [0.0005, 0.001]},   from stage 2 on
 //   "augment": {"p2a": false, "p2a_probability": 0.02,     from stage 2 on, see batch_source.h
 //               "a2p": false, "a2p_probability": 1, "a2p_teacher": FILE, "a2p_teacher_tokens": 0,
@@ -35,6 +39,7 @@
 //              {"stage": 2, ..., "schedule": "flat_cosine", "flat_fraction": 0.7,
 //               "final_factor": 0.01}, {"stage": 3, ...}],
 //   "checkpoint_every": 500, "log_every": 10, "eval_every": 0, "eval_batches": 4,
+//   "eval_at_start": false,                 true: also evaluate before the first step
 //   "max_nonfinite_steps": 10
 // }
 // Every key is optional except "stages" and the data sources; unknown keys are errors. Enums
@@ -51,6 +56,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -73,7 +79,14 @@ struct DatasetSource {
   double weight = 1.0;
   bool synth = false;
   SynthSource synth_source;
-  std::string folders;            // a directory of sample folders
+  std::string folders;  // a directory of sample folders (the format "folders" at that root)
+  // A dataset in its native layout, opened by data::open_dataset (data/dataset.h): its format
+  // name ("kitti-raw", "rig-log", ...; "" for the synth and folders forms), root folder, split
+  // (the format's split name or a split-list file; "": every item) and format options.
+  std::string format;
+  std::string root;
+  std::string split;
+  std::map<std::string, std::string> options;
   int64_t width = 0, height = 0;  // the image size of its items: its aspect-ratio bucket
   bool labelled = true;           // false: its items are pseudo-labelled by A2P (stage 2 on)
 };
@@ -122,6 +135,9 @@ struct TrainConfig {
   int64_t width = 56, height = 56;
   std::array<int64_t, 2> num_tokens{16, 16};
   std::vector<DatasetSource> datasets;
+  // Held-out sources for the in-run evaluation (labelled; their items as they are: no P2A, A2P,
+  // photometric change or flip); empty: the training sources' separate evaluation stream.
+  std::vector<DatasetSource> eval_datasets;
 
   double condition_probability = 0.9;
   std::array<double, 2> sparse_ratio{0.0005, 0.001};
@@ -145,6 +161,7 @@ struct TrainConfig {
   int64_t log_every = 10;
   int64_t eval_every = 0;
   int64_t eval_batches = 4;
+  bool eval_at_start = false;  // also evaluate the starting weights (a fresh start's step 0)
   int64_t max_nonfinite_steps = 10;
 
   int64_t total_steps() const;

@@ -116,6 +116,17 @@ at::Device training_device(TrainDevice device, int local_rank) {
   return {at::kCUDA, static_cast<c10::DeviceIndex>(local_rank)};
 }
 
+// The batches of the held-out sources (data.eval_datasets), their items as they are; null
+// without any.
+std::unique_ptr<BatchSource> held_out_source(const TrainConfig& config) {
+  if (config.eval_datasets.empty()) return nullptr;
+  TrainConfig held_out = config;
+  held_out.datasets = config.eval_datasets;
+  held_out.eval_datasets.clear();
+  held_out.p2a = held_out.a2p = held_out.photometric = held_out.flip = false;
+  return std::make_unique<BatchSource>(held_out);
+}
+
 }  // namespace
 
 Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
@@ -126,7 +137,8 @@ Trainer::Trainer(TrainConfig config, model::OmniPointModel network,
       distributed_(distributed),
       rank_(distributed.rank()),
       world_size_(distributed.world_size()),
-      source_(config_) {
+      source_(config_),
+      eval_source_(held_out_source(config_)) {
   if (config_.stages.empty()) throw std::invalid_argument("training: the config has no stages");
   util::set_threads(config_.threads);
   model_->to(device_);
@@ -314,7 +326,8 @@ std::map<std::string, double> Trainer::evaluate() {
   for (int64_t b = 0; b < config_.eval_batches; ++b) {
     // Batch b from bucket b (modulo their number), so that every aspect ratio is scored.
     // Scored on the CPU (eval/metrics.h), the network and the losses on the device.
-    const TrainingBatch batch = source_.batch(b, conditions, rank_, world_size_, kEvalStream, b);
+    const BatchSource& source = eval_source_ ? *eval_source_ : source_;
+    const TrainingBatch batch = source.batch(b, conditions, rank_, world_size_, kEvalStream, b);
     const TrainingBatch on_device = to_device(batch, device_);
     const model::OmniPointOutput output = forward(on_device, conditions);
     at::Generator generator =

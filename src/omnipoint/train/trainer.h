@@ -87,7 +87,8 @@ class Trainer {
   StepRecord train_step();
 
   // The EMA weights' mean losses over config.eval_batches fixed batches (a separate data
-  // stream; batch b from aspect bucket b modulo their number), no update, plus the
+  // stream of the training sources, or of the held-out data.eval_datasets where the config
+  // names any; batch b from aspect bucket b modulo their number), no update, plus the
   // benchmark's scores on them: points_rel/points_delta1 (scale-invariant points) and
   // metric_rel/metric_delta1 (metric points, metric items only), as fractions.
   std::map<std::string, double> evaluate();
@@ -109,6 +110,7 @@ class Trainer {
   const DistributedContext& distributed_;
   int64_t rank_, world_size_;
   BatchSource source_;
+  std::unique_ptr<BatchSource> eval_source_;  // data.eval_datasets' (null: none)
   std::map<std::string, at::Tensor> ema_;
   std::unique_ptr<torch::optim::AdamW> optimizer_;
   std::vector<std::vector<std::string>> group_names_;  // parameter names per optimiser group

@@ -28,8 +28,10 @@ data::Sample perspective_to_any(const data::Sample& sample, uint64_t seed) {
   view.camera = view.camera.resized(width, height);
   const augment::P2AResult rendered =
       augment::perspective_to_any(sample.camera, sample.image, sample.distance, sample.mask, view);
-  return {rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(),
-          rendered.mask.contiguous(), sample.metric};
+  data::Sample out{rendered.camera, rendered.image.contiguous(), rendered.distance.contiguous(),
+                   rendered.mask.contiguous(), sample.metric};
+  out.sparse_labels = sample.sparse_labels;  // the samples that land stay samples
+  return out;
 }
 
 // A2P: the sample's labels replaced by the teacher's, stitched back from one random view.
@@ -56,7 +58,8 @@ TrainingItem make_training_item(const data::Sample& loaded, const ItemContext& c
   data::Sample sample = loaded;
   camera::Rays ray_map = loaded.camera.ray_map(at::kFloat);
   const camera::CameraClass lens = camera::camera_class(loaded.camera);
-  bool sky_known = true;
+  // Sparse labels (LiDAR) say nothing of the pixels between them: no sky is known there.
+  bool sky_known = !loaded.sparse_labels;
   if (conditions && config.p2a && lens == camera::CameraClass::kPerspective &&
       random.chance(config.p2a_probability)) {
     sample = perspective_to_any(loaded, random.next_u64());
@@ -88,6 +91,7 @@ TrainingItem make_training_item(const data::Sample& loaded, const ItemContext& c
   item.mask = sample.mask;
   item.mask_negative = sky_known ? ray_map.valid & ~sample.mask : at::zeros_like(sample.mask);
   item.metric = at::full({}, sample.metric, at::kBool);
+  item.sparse = at::full({}, sample.sparse_labels, at::kBool);
 
   // Conditions (paper: each enabled with probability 0.9 from stage 2; sparse depth sampled
   // from the GT at 0.05–0.1 % of the pixels).
@@ -96,8 +100,14 @@ TrainingItem make_training_item(const data::Sample& loaded, const ItemContext& c
   const bool with_depth = conditions && random.chance(config.condition_probability);
   item.condition_rays = with_rays ? ray_map.rays.permute({2, 0, 1}) : at::zeros({3, height, width});
   if (with_depth) {
-    const double ratio = random.uniform(config.sparse_ratio[0], config.sparse_ratio[1]);
+    double ratio = random.uniform(config.sparse_ratio[0], config.sparse_ratio[1]);
     at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(random.next_u64());
+    if (sample.sparse_labels) {
+      // The share is of the image's pixels, as on a dense item: of a sparse item's few labels
+      // it takes correspondingly more (all of them at most).
+      const double labelled = std::max(1.0, sample.mask.sum().item<double>());
+      ratio = std::min(1.0, ratio * static_cast<double>(width * height) / labelled);
+    }
     item.condition_depth =
         geometry::sample_uniform_ratio(sample.distance, sample.mask, ratio, generator).depth;
   } else {
@@ -122,6 +132,7 @@ TrainingBatch collate(const std::vector<TrainingItem>& items, int64_t num_tokens
   batch.targets.mask = stacked(&TrainingItem::mask);
   batch.targets.mask_negative = stacked(&TrainingItem::mask_negative);
   batch.targets.metric = stacked(&TrainingItem::metric);
+  batch.targets.sparse = stacked(&TrainingItem::sparse);
   batch.num_tokens = num_tokens;
   return batch;
 }
@@ -137,6 +148,7 @@ TrainingBatch to_device(const TrainingBatch& batch, at::Device device) {
   out.targets.mask = moved(batch.targets.mask);
   out.targets.mask_negative = moved(batch.targets.mask_negative);
   out.targets.metric = moved(batch.targets.metric);
+  out.targets.sparse = moved(batch.targets.sparse);
   return out;
 }
 

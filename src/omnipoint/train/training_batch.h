@@ -28,6 +28,7 @@ struct TrainingItem {
   at::Tensor mask;             // (H,W) bool: labelled geometry
   at::Tensor mask_negative;    // (H,W) bool: known to hold no geometry (sky)
   at::Tensor metric;           // () bool: the distances are metric
+  at::Tensor sparse;           // () bool: sparse labels (data::Sample::sparse_labels)
   at::Tensor condition_rays;   // (3,H,W) GT rays where the condition is on, else 0
   at::Tensor condition_depth;  // (H,W) sparse GT distances where on, else 0
 };

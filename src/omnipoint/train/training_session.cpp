@@ -178,6 +178,12 @@ void TrainingSession::train(Trainer& trainer, const Outputs& outputs) {
   const int64_t first = trainer.step();
   int64_t images = 0;
   bool saved = false;
+  const auto evaluate = [&] {
+    const std::map<std::string, double> evaluation =
+        trainer.evaluate();  // a collective: on every rank
+    if (outputs.writer) append_line(outputs.log, {{"step", trainer.step()}, {"eval", evaluation}});
+  };
+  if (config.eval_at_start && first == 0) evaluate();  // the starting weights, before any step
   while (trainer.step() < end) {
     const StepRecord record = trainer.train_step();
     images += record.images;
@@ -200,11 +206,7 @@ void TrainingSession::train(Trainer& trainer, const Outputs& outputs) {
         saved = true;
       }
     }
-    if (config.eval_every > 0 && record.step % config.eval_every == 0) {
-      const std::map<std::string, double> evaluation =
-          trainer.evaluate();  // a collective: on every rank
-      if (outputs.writer) append_line(outputs.log, {{"step", record.step}, {"eval", evaluation}});
-    }
+    if (config.eval_every > 0 && record.step % config.eval_every == 0) evaluate();
   }
   if (!outputs.writer) return;
   if (!saved) write_checkpoint(outputs.checkpoints, trainer.state(), network_config);

@@ -8,6 +8,7 @@
 //   log.jsonl       one JSON line per step {"step", "stage", "loss", "terms", "grad_norm",
 //                   "skipped", "lr_backbone", "lr_heads", "num_tokens", "image_size",
 //                   "seconds", "images_per_s"}, and one per evaluation {"step", "eval"}
+//                   (step 0: the starting weights, with eval_at_start)
 //   checkpoints/    every checkpoint_every steps and when the session ends (checkpoint.h)
 //   curves.png      with each checkpoint and at the end (curves.h; builds with image I/O)
 //   model.safetensors, model_ema.safetensors
