@@ -307,16 +307,20 @@ inline Parser hub_model_info_parser() {
 }
 
 // The text files of datasets' native layouts (data/formats/): Structured3D's camera_pose.txt
-// for files named camera_pose*, else a split list; both parsers are driven with the same bytes.
+// for files named camera_pose*, ARKitScenes' .pincam for *.pincam, else a split list; all the
+// parsers are driven with the same bytes.
 inline void parse_native_text(const std::string& b, const std::string& s) {
   if (std::filesystem::path(s).filename().string().rfind("camera_pose", 0) == 0)
     data::formats::parse_structured3d_pose(b, s);
+  else if (std::filesystem::path(s).extension() == ".pincam")
+    data::formats::parse_pincam(b, s);
   else
     data::formats::parse_split_list(b, s);
 }
 inline Parser native_text_parser() {
   return {"native_text", parse_native_text, [](const std::string& b, const std::string& s) {
             within_contract([&] { data::formats::parse_structured3d_pose(b, s); });
+            within_contract([&] { data::formats::parse_pincam(b, s); });
             within_contract([&] { data::formats::parse_split_list(b, s); });
           }};
 }

@@ -23,5 +23,10 @@ DatasetFormat matterport360_format();
 DatasetFormat pano3d_format();
 DatasetFormat panosuncg_format();
 DatasetFormat structured3d_format();
+// Pinhole RGB-D captures and renderings (formats/<name>.cpp).
+DatasetFormat arkitscenes_format();
+DatasetFormat tartanair_format();
+// Unlabelled images with one camera (formats/images.cpp): A2P self-training's source.
+DatasetFormat images_format();
 
 }  // namespace omnipoint::data

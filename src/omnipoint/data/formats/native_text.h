@@ -3,6 +3,7 @@
 // missing or malformed field is a std::runtime_error naming `source` (the file), the line and
 // the problem. Fuzzed with the split lists (docs/FUZZING.md, tests/fuzz/parsers.h).
 #include <array>
+#include <cstdint>
 #include <string>
 
 namespace omnipoint::data::formats {
@@ -14,5 +15,14 @@ struct Structured3dPose {
   double half_fov_x = 0, half_fov_y = 0;  // radians, in (0, pi/2)
 };
 Structured3dPose parse_structured3d_pose(const std::string& text, const std::string& source);
+
+// ARKitScenes' .pincam: one line "width height fx fy cx cy" (DATA.md), pixels; width and
+// height whole numbers in [1, 100000], fx and fy > 0, cx and cy as written (their pixel
+// convention is the reader's: formats/arkitscenes.cpp).
+struct Pincam {
+  int64_t width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+};
+Pincam parse_pincam(const std::string& text, const std::string& source);
 
 }  // namespace omnipoint::data::formats
