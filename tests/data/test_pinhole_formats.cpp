@@ -174,8 +174,7 @@ TEST_F(PinholeFormats, ArkitScenesMillimetreZDepthAndPincamIntegerCentres) {
   EXPECT_EQ(dataset->item_name({1, 0}), "Training/41069021/lowres_wide/41069021_6845.890.png");
   const std::vector<std::string> sources = dataset->item_sources({1, 0});
   ASSERT_EQ(sources.size(), 3u);
-  EXPECT_EQ(sources[1],
-            (root_ / "Training/41069021/lowres_depth/41069021_6845.890.png").string());
+  EXPECT_EQ(sources[1], (root_ / "Training/41069021/lowres_depth/41069021_6845.890.png").string());
   EXPECT_EQ(sources[2],
             (root_ / "Training/41069021/lowres_wide_intrinsics/41069021_6845.891.pincam").string());
   // A 16-bit millimetre z-depth is at most 0.5 mm / ray.z off along its ray.
@@ -275,8 +274,8 @@ TEST_F(PinholeFormats, TartanAirNpyMetresFixedCameraAndSky) {
   // The sky threshold: below the room's farthest wall everything further is sky.
   DatasetLocation near{root_.string()};
   near.options["sky_depth"] = "4";
-  EXPECT_TRUE(at::equal(open_dataset("tartanair", near)->item({0, 0}).mask,
-                        expected & (depth < 4)));
+  EXPECT_TRUE(
+      at::equal(open_dataset("tartanair", near)->item({0, 0}).mask, expected & (depth < 4)));
   near.options["sky_depth"] = "-1";
   EXPECT_HAS(open_error("tartanair", near), "option sky_depth=-1: expected a number in");
 
@@ -363,10 +362,9 @@ TEST_F(PinholeFormats, ImagesUnlabelledWithOneCamera) {
   const Sample back = read_sample((samples / "0000").string());
   EXPECT_FALSE(back.labelled);
   EXPECT_FALSE(back.mask.any().item<bool>());
-  const test::CliRun eval =
-      test::run_omnipoint("eval --baseline constant --data " + samples.string() + " --out " +
-                              (root_ / "eval").string(),
-                          root_ / "cli");
+  const test::CliRun eval = test::run_omnipoint(
+      "eval --baseline constant --data " + samples.string() + " --out " + (root_ / "eval").string(),
+      root_ / "cli");
   EXPECT_EQ(eval.status, 1);
   EXPECT_HAS(eval.err, "sample 0000 has no labels (meta.json \"labelled\": false)");
   EXPECT_EQ(std::count(eval.err.begin(), eval.err.end(), '\n'), 1) << eval.err;

@@ -89,9 +89,9 @@ std::string pincam_of(const std::string& root, const std::string& item, const As
   for (const double offset : {-0.001, 0.001}) {
     char text[64];
     std::snprintf(text, sizeof text, "%.3f", timestamp + offset);
-    const std::string nearby = (fs::path(exact).parent_path() /
-                                (stem.substr(0, underscore + 1) + text + ".pincam"))
-                                   .generic_string();
+    const std::string nearby =
+        (fs::path(exact).parent_path() / (stem.substr(0, underscore + 1) + text + ".pincam"))
+            .generic_string();
     if (fs::exists(join(root, nearby), error)) return nearby;
   }
   return exact;
@@ -116,15 +116,14 @@ std::unique_ptr<Dataset> open_arkitscenes(const DatasetLocation& location) {
   formats::require_root(location);
   const std::string root = location.path;
   Settings settings;
-  settings.assets = formats::option_choice(location, "resolution", {"lowres", "highres"}) ==
-                            "lowres"
-                        ? Assets{"lowres_wide", "lowres_depth", "lowres_wide_intrinsics"}
-                        : Assets{"wide", "highres_depth", "wide_intrinsics"};
-  settings.centre_shift =
-      formats::option_choice(location, "principal_point", {"integer-centre", "corner"}) ==
-              "integer-centre"
-          ? 0.5
-          : 0.0;
+  settings.assets =
+      formats::option_choice(location, "resolution", {"lowres", "highres"}) == "lowres"
+          ? Assets{"lowres_wide", "lowres_depth", "lowres_wide_intrinsics"}
+          : Assets{"wide", "highres_depth", "wide_intrinsics"};
+  settings.centre_shift = formats::option_choice(location, "principal_point",
+                                                 {"integer-centre", "corner"}) == "integer-centre"
+                              ? 0.5
+                              : 0.0;
   const Assets& assets = settings.assets;
   formats::ItemListing listing;
   for (const std::string& depth : formats::find_files(root, "*/*/" + assets.depth + "/*_*.png"))

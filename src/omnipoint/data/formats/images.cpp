@@ -59,8 +59,7 @@ camera::Camera image_camera(const std::string& spec, const at::Tensor& image,
   return camera;
 }
 
-Sample read_image_item(const std::string& root, const std::string& item,
-                       const std::string& spec) {
+Sample read_image_item(const std::string& root, const std::string& item, const std::string& spec) {
   const std::string path = join(root, item);
   at::Tensor image = formats::read_rgb(path);
   const camera::Camera camera = image_camera(spec, image, path);
@@ -86,9 +85,7 @@ std::unique_ptr<Dataset> open_images(const DatasetLocation& location) {
   };
   listing.looked_for = "image files (.png, .jpg, ...) at any depth";
   formats::ItemReader reader;
-  reader.read = [root, spec](const std::string& item) {
-    return read_image_item(root, item, spec);
-  };
+  reader.read = [root, spec](const std::string& item) { return read_image_item(root, item, spec); };
   reader.sources = [root](const std::string& item) {
     return std::vector<std::string>{join(root, item)};
   };

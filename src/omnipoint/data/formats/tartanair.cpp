@@ -76,8 +76,7 @@ std::string array_text(const at::Tensor& array) {
                      : type == at::kLong   ? "int64"
                                            : std::string(c10::toString(type));
   text += " (";
-  for (int64_t i = 0; i < array.dim(); ++i)
-    text += (i ? ", " : "") + std::to_string(array.size(i));
+  for (int64_t i = 0; i < array.dim(); ++i) text += (i ? ", " : "") + std::to_string(array.size(i));
   return text + (array.dim() == 1 ? ",)" : ")");
 }
 
@@ -102,8 +101,7 @@ std::unique_ptr<Dataset> open_tartanair(const DatasetLocation& location) {
   Settings settings;
   settings.side = formats::option_choice(location, "camera", {"left", "right"});
   settings.centre_shift =
-      formats::option_choice(location, "principal_point", {"corner", "integer-centre"}) ==
-              "corner"
+      formats::option_choice(location, "principal_point", {"corner", "integer-centre"}) == "corner"
           ? 0.0
           : 0.5;
   settings.sky_depth = formats::option_number(location, "sky_depth", 1000, 1e-3, 1e9);
