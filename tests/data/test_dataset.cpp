@@ -116,17 +116,18 @@ class ConstantDataset : public Dataset {
 
 TEST(Dataset, FormatsAreRegisteredByName) {
   const std::vector<std::string> builtin = {
-      "folders", "hypersim",  "kitti-raw", "kitti360",     "matterport360", "moge",
-      "pano3d",  "panosuncg", "rig-log",   "stanford2d3d", "structured3d",  "vkitti2"};
+      "arkitscenes", "folders",       "hypersim",     "images",    "kitti-raw",
+      "kitti360",    "matterport360", "moge",         "pano3d",    "panosuncg",
+      "rig-log",     "stanford2d3d",  "structured3d", "tartanair", "vkitti2"};
   EXPECT_EQ(dataset_formats(), builtin);
   try {
     open_dataset("tar", {"x"});
     FAIL() << "an unknown format was opened";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
-              "dataset format \"tar\": unknown (known: folders, hypersim, kitti-raw, kitti360, "
-              "matterport360, moge, pano3d, panosuncg, rig-log, stanford2d3d, structured3d, "
-              "vkitti2)");
+              "dataset format \"tar\": unknown (known: arkitscenes, folders, hypersim, images, "
+              "kitti-raw, kitti360, matterport360, moge, pano3d, panosuncg, rig-log, stanford2d3d, "
+              "structured3d, tartanair, vkitti2)");
   }
   register_dataset_format("constant", [](const DatasetLocation& location) {
     return std::make_unique<ConstantDataset>(location.path);
@@ -135,7 +136,7 @@ TEST(Dataset, FormatsAreRegisteredByName) {
   EXPECT_EQ(dataset->size(), 3);
   EXPECT_EQ(dataset->item_name({2, 0}), "somewhere#2");
   std::vector<std::string> with_constant = builtin;
-  with_constant.insert(with_constant.begin(), "constant");
+  with_constant.insert(with_constant.begin() + 1, "constant");  // after "arkitscenes"
   EXPECT_EQ(dataset_formats(), with_constant);
   EXPECT_THROW(register_dataset_format("constant",
                                        [](const DatasetLocation& location) {

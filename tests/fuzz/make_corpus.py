@@ -414,6 +414,7 @@ SEEDS = {
                                                        b"ai_001_001,cam_00,0,True,,train\n"
                                                        b"ai_001_001,cam_00,1,False,corrupt,train\n"
                                                        b"ai_038_009,cam_00,0,True,,val\n",
+    "native_text/41069021_6845.873.pincam": b"256 192 211.949 211.949 127.933 95.9333\n",
     "camera/line.txt": b"PINHOLE 640 480 500 500 320 240\n",
     "camera/cameras.txt": b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
                           b"1 SIMPLE_RADIAL 320 240 250 160 120 -0.05\n\n"
@@ -454,6 +455,8 @@ SEEDS = {
     "sample_meta/line.json": js({"format": "omnipoint-sample-1", "camera": "PINHOLE 16 12 14 14 8 6", "metric": True}),
     "sample_meta/object.json": js({"camera": {"model": "EQUIRECTANGULAR", "width": 64, "height": 32, "params": []},
                                    "scene": {"kind": "indoor"}}),
+    "sample_meta/unlabelled.json": js({"format": "omnipoint-sample-1", "camera": "PINHOLE 16 12 14 14 8 6",
+                                       "metric": False, "labelled": False}),
     "sample_meta/fisheye.json": js({"camera": "OPENCV_FISHEYE 28 28 9 9 14 14 0 0 0 0", "metric": False}),
     "hub_model_info/moge2.json": js({"id": "Ruicheng/moge-2-vitl-normal", "sha": "b135031bae30b5ac2ae141a0e68717795ce38340",
                                      "siblings": [{"rfilename": ".gitattributes"}, {"rfilename": "README.md"},
@@ -622,6 +625,9 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
     "native_text/metadata_images_split_partition.csv": (b"scene_name,camera_name,frame_id,included_in_public_release,"
                                                         b"split_partition_name\nai_001_001,cam_00,0,True,holdout\n",
                                                         "split_partition_name \"holdout\" is not train, val or test"),
+    "native_text/short.pincam": (b"256 192 211.9 211.9 127.9\n", "expected one line of 6 numbers"),
+    "native_text/width.pincam": (b"256.5 192 211.9 211.9 127.9 95.9\n", "width \"256.5\" is not a whole number"),
+    "native_text/focal.pincam": (b"256 192 0 211.9 127.9 95.9\n", "fx and fy must be positive"),
     "camera/unknown_model.txt": (b"1 NOPE 640 480 1 2 3\n", "unknown camera model 'NOPE'"),
     "camera/bad_json.json": (b'{"model": "PINHOLE", "width": 64', "not valid JSON"),
     "camera/comments_only.txt": (b"# nothing here\n\n", "contains no camera"),
@@ -709,6 +715,8 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
                                     "unknown or invalid camera: unknown camera model 'NO_SUCH_MODEL'"),
     "sample_meta/metric_number.json": (js({"camera": "PINHOLE 16 12 14 14 8 6", "metric": 1}),
                                        "\"metric\" must be true or false, got 1"),
+    "sample_meta/labelled_string.json": (js({"camera": "PINHOLE 16 12 14 14 8 6", "labelled": "no"}),
+                                         "meta.json \"labelled\" must be true or false, got \"no\""),
     "sample_meta/array.json": (b"[1, 2]", "meta.json has no \"camera\""),
     "hub_model_info/not_json.json": (b"<html>", "is not a model description"),
     "hub_model_info/no_siblings.json": (js({"id": "o/r"}), "is not a model description"),

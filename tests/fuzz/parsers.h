@@ -314,7 +314,8 @@ inline Parser hub_model_info_parser() {
 
 // The text files of datasets' native layouts (data/formats/): Structured3D's camera_pose.txt
 // for files named camera_pose*, Virtual KITTI 2's intrinsic.txt for intrinsic*, Hypersim's
-// CSVs for metadata_camera_parameters* and metadata_images_split*, else a split list; all the
+// CSVs for metadata_camera_parameters* and metadata_images_split*, ARKitScenes' .pincam for
+// *.pincam, else a split list; all the
 // parsers are driven with the same bytes.
 inline void parse_native_text(const std::string& b, const std::string& s) {
   const std::string name = std::filesystem::path(s).filename().string();
@@ -327,12 +328,15 @@ inline void parse_native_text(const std::string& b, const std::string& s) {
     data::formats::parse_hypersim_cameras(b, s);
   else if (starts("metadata_images_split"))
     data::formats::parse_hypersim_split(b, s);
+  else if (std::filesystem::path(s).extension() == ".pincam")
+    data::formats::parse_pincam(b, s);
   else
     data::formats::parse_split_list(b, s);
 }
 inline Parser native_text_parser() {
   return {"native_text", parse_native_text, [](const std::string& b, const std::string& s) {
             within_contract([&] { data::formats::parse_structured3d_pose(b, s); });
+            within_contract([&] { data::formats::parse_pincam(b, s); });
             within_contract([&] { data::formats::parse_split_list(b, s); });
             within_contract([&] { data::formats::parse_vkitti2_intrinsics(b, s); });
             within_contract([&] { data::formats::parse_hypersim_cameras(b, s); });

@@ -416,6 +416,35 @@ TEST(BatchSource, SourcesWithoutUsableSamplesAreErrors) {
   fs::remove_all(root);
 }
 
+// Unlabelled sample folders (the "images" format's, "labelled": false) in a source that says
+// "labels": true: one clear error naming the source, not an item trained on zero labels.
+TEST(BatchSource, UnlabelledSamplesInALabelledSourceAreAnError) {
+  if (!io::image_io_available()) GTEST_SKIP() << "no image file I/O in this build";
+  const std::string root = temp_dir("unlabelled_samples");
+  const std::string folders = sample_folders(root + "/samples", 2, 0);
+  for (const std::string name : {"s0", "s1"}) {
+    data::Sample sample = data::read_sample(folders + "/" + name);
+    sample.distance = at::zeros_like(sample.distance);
+    sample.mask = at::zeros_like(sample.mask);
+    sample.metric = false;
+    sample.labelled = false;
+    fs::remove_all(folders + "/" + name);
+    data::write_sample(folders + "/" + name, sample);
+  }
+  const BatchSource source(TrainConfig::from_json(folder_config(folders)));
+  try {
+    source.batch(0, false);
+    FAIL() << "a labelled batch from unlabelled samples";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(folders), std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("its samples have no labels; declare it \"labels\": false"),
+        std::string::npos)
+        << e.what();
+  }
+  fs::remove_all(root);
+}
+
 // Folder samples and synthetic ones mixed by weight in one bucket: every item has the bucket's
 // size, its camera's rays, distances only where labelled and positive there, metric labels.
 TEST(BatchSource, FolderAndSyntheticItemsMixWithConsistentLabels) {

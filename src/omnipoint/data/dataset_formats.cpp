@@ -68,7 +68,8 @@ DatasetFormat moge_format() {
 std::vector<DatasetFormat> builtin_dataset_formats() {
   return {sample_folders_format(), moge_format(),         kitti_raw_format(),     kitti360_format(),
           rig_log_format(),        stanford2d3d_format(), matterport360_format(), pano3d_format(),
-          panosuncg_format(),      structured3d_format(), hypersim_format(),      vkitti2_format()};
+          panosuncg_format(),      structured3d_format(), hypersim_format(),      vkitti2_format(),
+          arkitscenes_format(),    tartanair_format(),    images_format()};
 }
 
 }  // namespace omnipoint::data

@@ -26,5 +26,10 @@ DatasetFormat structured3d_format();
 // Rendered training sets (formats/<name>.cpp).
 DatasetFormat hypersim_format();
 DatasetFormat vkitti2_format();
+// Pinhole RGB-D captures and renderings (formats/<name>.cpp).
+DatasetFormat arkitscenes_format();
+DatasetFormat tartanair_format();
+// Unlabelled images with one camera (formats/images.cpp): A2P self-training's source.
+DatasetFormat images_format();
 
 }  // namespace omnipoint::data

@@ -48,7 +48,8 @@ void validate_sample(const Sample& s, const std::string& what) {
   if ((s.mask & (s.distance <= 0)).any().item<bool>()) fail("mask marks pixels without distance");
   if ((s.mask.logical_not() & (s.distance != 0)).any().item<bool>())
     fail("distance must be 0 outside the mask");
-  if (!s.mask.any().item<bool>()) fail("no labelled pixel");
+  if (s.labelled != s.mask.any().item<bool>())
+    fail(s.labelled ? "no labelled pixel" : "an unlabelled sample has labelled pixels");
 }
 
 SampleMeta parse_sample_meta(const std::string& text, const std::string& name) {
@@ -69,10 +70,11 @@ SampleMeta parse_sample_meta(const std::string& text, const std::string& name) {
     return found->get<bool>();
   };
   const bool metric = flag("metric"), sparse_labels = flag("sparse_labels");
+  const bool labelled = !meta.contains("labelled") || flag("labelled");
   const auto& spec = meta.at("camera");
   try {
     return {camera::parse_camera(spec.is_string() ? spec.get<std::string>() : spec.dump()), metric,
-            sparse_labels};
+            sparse_labels, labelled};
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(name + ": unknown or invalid camera: " + e.what());
   }
@@ -97,6 +99,7 @@ Sample read_sample(const std::string& folder_name) {
   if (image_path.empty()) fail("no image.png or image.jpg");
   Sample sample{*cam, {}, {}, {}, meta.metric};
   sample.sparse_labels = meta.sparse_labels;
+  sample.labelled = meta.labelled;
   try {
     sample.image = io::read_image(image_path);
     if (sample.image.size(0) != h || sample.image.size(1) != w)
@@ -152,6 +155,7 @@ void write_sample(const std::string& folder_name, const Sample& sample,
   meta["camera"] = sample.camera.to_spec();
   meta["metric"] = sample.metric;
   if (sample.sparse_labels) meta["sparse_labels"] = true;
+  if (!sample.labelled) meta["labelled"] = false;
   io::write_image_png((folder / "image.png").string(), sample.image.contiguous().cpu());
   io::write_npy((folder / "distance.npy").string(), sample.distance.cpu());
   io::write_image_png((folder / "mask.png").string(), sample.mask.cpu());

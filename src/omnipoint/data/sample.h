@@ -5,9 +5,10 @@
 //   depth.npy                (H, W) float32 planar depth (camera-frame z), used when
 //                            distance.npy is absent (pixels with ray z ~ 0 then unusable)
 //   mask.png | mask.npy      optional (H, W): valid geometry (non-zero); absent -> distance > 0
-//   meta.json                {"camera": SPEC, "metric": bool, "sparse_labels": bool, ...} with
-//                            the camera spec in docs/DESIGN.md's convention (COLMAP line or
-//                            JSON object); "sparse_labels" (default false) as Sample's
+//   meta.json                {"camera": SPEC, "metric": bool, "sparse_labels": bool,
+//                            "labelled": bool, ...} with the camera spec in docs/DESIGN.md's
+//                            convention (COLMAP line or JSON object); "sparse_labels" (default
+//                            false) and "labelled" (default true) as Sample's
 // Zero distance means "no label" (sky, outside the lens); +inf is read as sky.
 #include <ATen/core/Tensor.h>
 
@@ -30,6 +31,10 @@ struct Sample {
   // empty (not sky), and labelled pixels have few labelled neighbours. Dense labels (rendered or
   // sensor depth maps) leave it false: there an unlabelled valid pixel holds no geometry.
   bool sparse_labels = false;
+  // False for an unlabelled image (the "images" format: the source of A2P self-training):
+  // its distance is all 0 and its mask all false, and only a consumer that makes its own
+  // labels (A2P's pseudo-labels) may use it; evaluation refuses it.
+  bool labelled = true;
 };
 
 // What meta.json says: the camera and whether distances are metric ("metric": bool, false
@@ -38,9 +43,10 @@ struct SampleMeta {
   camera::Camera camera;
   bool metric = false;
   bool sparse_labels = false;
+  bool labelled = true;
 };
-// meta.json's text; not JSON, no "camera", an unknown or invalid camera or a "metric" or
-// "sparse_labels" that is not a bool -> std::runtime_error naming `name`.
+// meta.json's text; not JSON, no "camera", an unknown or invalid camera or a "metric",
+// "sparse_labels" or "labelled" that is not a bool -> std::runtime_error naming `name`.
 SampleMeta parse_sample_meta(const std::string& text, const std::string& name);
 
 // Reads and validates a sample folder. Missing or corrupt files, sizes that disagree with
@@ -55,7 +61,8 @@ void write_sample(const std::string& folder, const Sample& sample,
                   const std::string& extra_meta = "");
 
 // Checks the invariants of a Sample in memory (shapes, dtypes, finite non-negative
-// distances, zero outside the mask); throws std::invalid_argument naming `what`.
+// distances, zero outside the mask, a labelled pixel unless the sample is unlabelled and then
+// none); throws std::invalid_argument naming `what`.
 void validate_sample(const Sample& sample, const std::string& what);
 
 }  // namespace omnipoint::data

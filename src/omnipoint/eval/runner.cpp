@@ -225,6 +225,11 @@ RunResult score_datasets(const Predictor& predictor, const std::vector<EvalDatas
     } catch (const std::exception& e) {
       skip(root, item.id, "unreadable sample", e.what());
     }
+    // An unlabelled set (the "images" format's) has nothing to score: refused, not skipped.
+    if (read && !read->sample.labelled)
+      throw std::runtime_error("dataset " + root + ": sample " + item.id +
+                               " has no labels (meta.json \"labelled\": false); evaluation "
+                               "needs ground-truth geometry");
     if (read) {
       const EvalSample& sample = *read;
       const std::string split = split_name(sample.split);

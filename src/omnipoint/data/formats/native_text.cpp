@@ -202,4 +202,21 @@ std::map<HypersimFrame, std::string> parse_hypersim_split(const std::string& tex
   return split;
 }
 
+Pincam parse_pincam(const std::string& text, const std::string& source) {
+  const auto lines = word_lines(text);
+  if (lines.size() != 1 || lines.front().second.size() != 6)
+    fail(source, 0, "expected one line of 6 numbers (width height fx fy cx cy)");
+  const auto& [line, f] = lines.front();
+  static const char* const names[] = {"width", "height", "fx", "fy", "cx", "cy"};
+  double v[6];
+  for (int i = 0; i < 6; ++i) v[i] = number(f[i], source, line, names[i]);
+  for (int i = 0; i < 2; ++i)
+    if (v[i] != std::floor(v[i]) || v[i] < 1 || v[i] > 100000)
+      fail(source, line,
+           std::string(names[i]) + " \"" + f[i] +
+               "\" is not a whole number of pixels in [1, 100000]");
+  if (v[2] <= 0 || v[3] <= 0) fail(source, line, "fx and fy must be positive");
+  return {static_cast<int64_t>(v[0]), static_cast<int64_t>(v[1]), v[2], v[3], v[4], v[5]};
+}
+
 }  // namespace omnipoint::data::formats

@@ -43,4 +43,13 @@ using HypersimFrame = std::tuple<std::string, std::string, int64_t>;
 std::map<HypersimFrame, std::string> parse_hypersim_split(const std::string& text,
                                                           const std::string& source);
 
+// ARKitScenes' .pincam: one line "width height fx fy cx cy" (DATA.md), pixels; width and
+// height whole numbers in [1, 100000], fx and fy > 0, cx and cy as written (their pixel
+// convention is the reader's: formats/arkitscenes.cpp).
+struct Pincam {
+  int64_t width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+};
+Pincam parse_pincam(const std::string& text, const std::string& source);
+
 }  // namespace omnipoint::data::formats
