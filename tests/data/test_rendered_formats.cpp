@@ -130,7 +130,7 @@ std::string camera_csv(const std::vector<std::string>& scenes, const std::string
                                       "camera_physical_anisotropy"};
   for (int i = 0; i < 9; ++i)
     columns.push_back("M_cam_from_uv_" + std::to_string(i / 3) + std::to_string(i % 3));
-  columns.push_back("M_proj_00");
+  columns.emplace_back("M_proj_00");
   std::string text;
   for (const std::string& column : columns)
     if (column != drop) text += (text.empty() ? "" : ",") + column;
@@ -145,9 +145,9 @@ std::string camera_csv(const std::vector<std::string>& scenes, const std::string
     for (double value : kCamFromUv.at(scene)) {
       char number[40];
       std::snprintf(number, sizeof number, "%.17g", value);
-      fields.push_back(number);
+      fields.emplace_back(number);
     }
-    fields.push_back("1.7320507492870254");
+    fields.emplace_back("1.7320507492870254");
     std::string row;
     for (std::size_t i = 0; i < fields.size(); ++i)
       if (columns[i] != drop) row += (i == 0 ? "" : ",") + fields[i];

@@ -185,7 +185,7 @@ void write_frame(const fs::path& folder, const std::vector<std::string>& skip = 
 
 // The ground truth in place of the network, at a wrong network scale per camera, then the
 // prediction's own alignment to the sparse depth (the one rule, geometry/alignment.h).
-RigCameraPredictor oracle(std::map<std::string, double> network_scales = {}) {
+RigCameraPredictor oracle(const std::map<std::string, double>& network_scales = {}) {
   return [network_scales](const RigCameraImage& image, const PredictOptions& options) {
     const RigView& v = synthetic_rig().view(image.camera);
     EXPECT_EQ(image.image.size(0), v.mask.size(0));

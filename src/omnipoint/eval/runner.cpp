@@ -185,6 +185,7 @@ RunResult score_datasets(const Predictor& predictor, const std::vector<EvalDatas
   for (const EvalDataset& dataset : datasets)
     for (const EvalItem& item : dataset.items) items.emplace_back(dataset.name, &item);
   std::vector<std::string> names;
+  names.reserve(datasets.size());
   for (const EvalDataset& dataset : datasets) names.push_back(dataset.name);
 
   RunResult result;

@@ -42,7 +42,7 @@ struct Reader {
     const json& value = field(object, key, where, required);
     if (value.is_null() && !required) return "";
     if (!value.is_string()) fail(where + key, "expected a string");
-    const std::string result = value.get<std::string>();
+    std::string result = value.get<std::string>();
     if (required && result.empty()) fail(where + key, "empty");
     return result;
   }
@@ -61,7 +61,7 @@ struct Reader {
 
 std::string entry_name(const Reader& reader, const json& columns, const std::string& key,
                        const std::string& fallback) {
-  const std::string name = reader.text(columns, key, "columns.", false);
+  std::string name = reader.text(columns, key, "columns.", false);
   if (name.empty()) return fallback;
   for (const char* entry : kMetricEntries)
     if (name == entry) return name;
@@ -383,7 +383,7 @@ std::string write_suite_files(const std::string& folder, const SuiteResult& resu
   io::write_file_atomically((out / "samples.jsonl").string(), [&](std::ostream& stream) {
     for (const auto& record : result.records) stream << record << "\n";
   });
-  const std::string table = suite_markdown(result);
+  std::string table = suite_markdown(result);
   io::write_file_atomically((out / "table.json").string(),
                             [&](std::ostream& stream) { stream << suite_json(result); });
   io::write_file_atomically((out / "table.md").string(),

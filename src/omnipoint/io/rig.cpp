@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <filesystem>
 #include <set>
@@ -171,7 +172,7 @@ std::string transform_text(const at::Tensor& matrix) {
     throw std::invalid_argument("format_rig: a transform is not (4, 4)");
   const double* entries = values.data_ptr<double>();
   std::string text = "[";
-  for (int r = 0; r < 3; ++r)
+  for (std::ptrdiff_t r = 0; r < 3; ++r)
     text +=
         (r ? ", " : "") + json(std::vector<double>(entries + 4 * r, entries + 4 * r + 4)).dump();
   return text + "]";

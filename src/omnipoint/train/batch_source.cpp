@@ -304,13 +304,13 @@ TrainingBatch BatchSource::make_batch(const Request& request, const std::atomic<
       if (pick < weight) break;
       pick -= weight;
     }
-    data::Sample drawn = draw_sample(source, random);
+    const data::Sample drawn = draw_sample(source, random);
     // An unlabelled sample (the "images" format's) may only come from a "labels": false source.
     if (!drawn.labelled && config_.datasets[source].labelled)
       throw std::runtime_error("training data \"" + source_name(config_.datasets[source]) +
                                "\": its samples have no labels; declare it \"labels\": false "
                                "(it then enters through A2P)");
-    const data::Sample sample = data::fit_sample(std::move(drawn), bucket.width, bucket.height);
+    const data::Sample sample = data::fit_sample(drawn, bucket.width, bucket.height);
     const ItemContext context{&config_, request.conditions, config_.datasets[source].labelled,
                               &teacher_};
     return make_training_item(sample, context, random);

@@ -77,7 +77,7 @@ std::string sibling(const std::string& item, const std::string& folder,
 // The .pincam of an item: its own timestamp's, else the one 0.001 s before or after (the
 // devkit's order); none existing -> its own name (reported missing).
 std::string pincam_of(const std::string& root, const std::string& item, const Assets& assets) {
-  const std::string exact = sibling(item, assets.intrinsics, ".pincam");
+  std::string exact = sibling(item, assets.intrinsics, ".pincam");
   std::error_code error;
   if (fs::exists(join(root, exact), error)) return exact;
   const std::string stem = fs::path(item).stem().string();  // VIDEO_TIMESTAMP
@@ -89,7 +89,7 @@ std::string pincam_of(const std::string& root, const std::string& item, const As
   for (const double offset : {-0.001, 0.001}) {
     char text[64];
     std::snprintf(text, sizeof text, "%.3f", timestamp + offset);
-    const std::string nearby =
+    std::string nearby =
         (fs::path(exact).parent_path() / (stem.substr(0, underscore + 1) + text + ".pincam"))
             .generic_string();
     if (fs::exists(join(root, nearby), error)) return nearby;

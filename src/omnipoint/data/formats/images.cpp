@@ -47,7 +47,7 @@ void collect(const fs::path& folder, const fs::path& root, std::vector<std::stri
 // The camera of `spec` for the image at `path`, which must have its size.
 camera::Camera image_camera(const std::string& spec, const at::Tensor& image,
                             const std::string& path) {
-  const camera::Camera camera = [&] {
+  camera::Camera camera = [&] {
     try {
       return io::read_camera(spec, camera::ImageSize{image.size(1), image.size(0)});
     } catch (const std::exception& error) {
