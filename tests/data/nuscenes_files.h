@@ -18,12 +18,12 @@ namespace omnipoint::test {
 
 struct NuScenesSensor {
   std::string channel;
-  std::string modality;    // camera, lidar, radar
-  double axis[3];          // of the sensor -> ego rotation (need not be unit)
-  double angle;            // radians
-  double translation[3];   // metres
-  double intrinsic[4];     // fx, fy, cx, cy (the devkit's camera_intrinsic); cameras only
-  int64_t size[2];         // width, height; cameras only
+  std::string modality;   // camera, lidar, radar
+  double axis[3];         // of the sensor -> ego rotation (need not be unit)
+  double angle;           // radians
+  double translation[3];  // metres
+  double intrinsic[4];    // fx, fy, cx, cy (the devkit's camera_intrinsic); cameras only
+  int64_t size[2];        // width, height; cameras only
 
   at::Tensor unit_axis() const {
     const double norm = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
@@ -48,18 +48,48 @@ struct NuScenesMetadata {
   std::vector<NuScenesSensor> sensors = {
       // About (0.5, -0.5, 0.5, -0.5): camera z (forward) -> ego x, camera x -> ego -y, as
       // nuScenes' CAM_FRONT.
-      {"CAM_FRONT", "camera", {-1, 1, -1}, 2 * M_PI / 3, {1.70, 0.02, 1.51},
-       {1266.4, 1266.4, 816.27, 491.51}, {1600, 900}},
-      {"CAM_FRONT_RIGHT", "camera", {0.3, -0.4, 0.85}, 2.1, {1.55, -0.49, 1.50},
-       {1260.8, 1260.8, 807.97, 495.33}, {1600, 900}},
-      {"CAM_BACK_RIGHT", "camera", {-0.7, 0.2, 0.3}, 1.4, {1.05, -0.48, 1.59},
-       {1256.7, 1256.7, 817.79, 451.95}, {1600, 900}},
-      {"CAM_BACK", "camera", {0.1, 0.9, -0.2}, 2.9, {0.05, -0.01, 1.61},
-       {809.2, 809.2, 829.22, 481.77}, {1600, 900}},
-      {"CAM_BACK_LEFT", "camera", {0.5, 0.5, 0.5}, 0.8, {1.04, 0.48, 1.56},
-       {1256.7, 1257.1, 792.11, 492.78}, {1440, 810}},
-      {"CAM_FRONT_LEFT", "camera", {-0.2, -0.6, 0.4}, 1.9, {1.52, 0.49, 1.51},
-       {1272.6, 1272.6, 826.62, 479.75}, {1600, 900}},
+      {"CAM_FRONT",
+       "camera",
+       {-1, 1, -1},
+       2 * M_PI / 3,
+       {1.70, 0.02, 1.51},
+       {1266.4, 1266.4, 816.27, 491.51},
+       {1600, 900}},
+      {"CAM_FRONT_RIGHT",
+       "camera",
+       {0.3, -0.4, 0.85},
+       2.1,
+       {1.55, -0.49, 1.50},
+       {1260.8, 1260.8, 807.97, 495.33},
+       {1600, 900}},
+      {"CAM_BACK_RIGHT",
+       "camera",
+       {-0.7, 0.2, 0.3},
+       1.4,
+       {1.05, -0.48, 1.59},
+       {1256.7, 1256.7, 817.79, 451.95},
+       {1600, 900}},
+      {"CAM_BACK",
+       "camera",
+       {0.1, 0.9, -0.2},
+       2.9,
+       {0.05, -0.01, 1.61},
+       {809.2, 809.2, 829.22, 481.77},
+       {1600, 900}},
+      {"CAM_BACK_LEFT",
+       "camera",
+       {0.5, 0.5, 0.5},
+       0.8,
+       {1.04, 0.48, 1.56},
+       {1256.7, 1257.1, 792.11, 492.78},
+       {1440, 810}},
+      {"CAM_FRONT_LEFT",
+       "camera",
+       {-0.2, -0.6, 0.4},
+       1.9,
+       {1.52, 0.49, 1.51},
+       {1272.6, 1272.6, 826.62, 479.75},
+       {1600, 900}},
       {"LIDAR_TOP", "lidar", {0.01, -0.02, 1}, -1.56, {0.94, 0.0, 1.84}, {}, {}},
       {"RADAR_FRONT", "radar", {0, 0, 1}, 0.01, {3.41, 0.0, 0.5}, {}, {}},
   };
@@ -126,19 +156,18 @@ struct NuScenesMetadata {
         for (const std::string part : {"a", "b", "sweep"}) {
           const std::string other = "calibration_" + std::to_string(2 - index) + "_" + s.channel;
           const bool key_frame = part != "sweep";
-          sample_data.push_back(
-              {{"token", "data_" + id + part + "_" + s.channel},
-               {"sample_token", "sample_" + id + (key_frame ? part : "a")},
-               {"ego_pose_token", "pose"},
-               {"calibrated_sensor_token", key_frame ? calibration : other},
-               {"filename", "samples/" + s.channel + "/" + id + part},
-               {"fileformat", s.modality == "camera" ? "jpg" : "pcd"},
-               {"width", s.modality == "camera" ? s.size[0] : 0},
-               {"height", s.modality == "camera" ? s.size[1] : 0},
-               {"timestamp", 1000 * index},
-               {"is_key_frame", key_frame},
-               {"prev", ""},
-               {"next", ""}});
+          sample_data.push_back({{"token", "data_" + id + part + "_" + s.channel},
+                                 {"sample_token", "sample_" + id + (key_frame ? part : "a")},
+                                 {"ego_pose_token", "pose"},
+                                 {"calibrated_sensor_token", key_frame ? calibration : other},
+                                 {"filename", "samples/" + s.channel + "/" + id + part},
+                                 {"fileformat", s.modality == "camera" ? "jpg" : "pcd"},
+                                 {"width", s.modality == "camera" ? s.size[0] : 0},
+                                 {"height", s.modality == "camera" ? s.size[1] : 0},
+                                 {"timestamp", 1000 * index},
+                                 {"is_key_frame", key_frame},
+                                 {"prev", ""},
+                                 {"next", ""}});
         }
       }
     }
