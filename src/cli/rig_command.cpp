@@ -4,6 +4,7 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cli/commands.h"
 #include "omnipoint/data/rig_import.h"
@@ -15,8 +16,8 @@ namespace {
 void add_import_command(CLI::App& parent) {
   auto* command = parent.add_subcommand(
       "import",
-      "Write a rig file from a KITTI-360 or KITTI raw calibration: every camera with its "
-      "intrinsics and body-from-camera pose, and the Velodyne (docs/RIG.md)");
+      "Write a rig file from a KITTI-360, KITTI raw or nuScenes calibration: every camera with "
+      "its intrinsics and body-from-camera pose, and the LiDAR (docs/RIG.md)");
   auto options = std::make_shared<data::RigImportOptions>();
   auto out = std::make_shared<std::string>();
   auto* kitti360 = command->add_option("--kitti360", options->kitti360_root,
@@ -24,14 +25,27 @@ void add_import_command(CLI::App& parent) {
   auto* kitti_raw =
       command->add_option("--kitti-raw", options->kitti_raw_date,
                           "A KITTI raw date folder (calib_cam_to_cam.txt, calib_velo_to_cam.txt)");
-  kitti360->excludes(kitti_raw);
+  auto* nuscenes = command->add_option(
+      "--nuscenes-json", options->nuscenes_json,
+      "A nuScenes metadata folder (v1.0-mini, ...: scene.json, sample_data.json, "
+      "calibrated_sensor.json, sensor.json)");
+  auto* scene = command->add_option(
+      "--scene", options->nuscenes_scene,
+      "The nuScenes scene (scene.json name) whose first sample's calibration is read; default "
+      "the first");
+  kitti360->excludes(kitti_raw)->excludes(nuscenes);
+  kitti_raw->excludes(nuscenes);
+  scene->needs(nuscenes);
   command->add_option("--out", *out, "The rig file to write")->required();
   command->add_option("--camera", options->cameras,
-                      "A camera to import, image_00 .. image_03 (repeatable; default all four)");
+                      "A camera to import: image_00 .. image_03, or a nuScenes channel such as "
+                      "CAM_FRONT (repeatable; default all)");
   command->add_option("--principal-point", options->principal_point,
                       "integer-centre (default, the devkits': cx = u0 + 0.5) or corner (cx = u0)");
   command->callback([options, out] {
-    const io::Rig rig = data::import_rig(*options);
+    std::vector<std::string> notes;
+    const io::Rig rig = data::import_rig(*options, &notes);
+    for (const std::string& note : notes) std::cout << note << "\n";
     io::write_rig(*out, rig);
     std::cout << *out << ": " << rig.cameras.size() << " cameras";
     for (const io::RigCamera& camera : rig.cameras)

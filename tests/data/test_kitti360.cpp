@@ -176,6 +176,15 @@ TEST(Kitti360, FisheyeAndPerspectiveSweepsThroughTheCalibrationChain) {
   EXPECT_TRUE(sample.sparse_labels);
   EXPECT_EQ(sample.image.size(0), kSize);
   expect_labels(sample, kFisheyeTruth, false, "fisheye, nearest");
+  // The files the frame is read from (data convert's manifest), each present.
+  const fs::path calibration = root / "calibration";
+  std::vector<std::string> sources = {
+      image_path(root, "image_02", 0).string(),
+      (root / "data_3d_raw" / kSequence / "velodyne_points" / "data" / "0000000000.bin").string(),
+      (calibration / "calib_cam_to_pose.txt").string(),
+      (calibration / "calib_cam_to_velo.txt").string(), (calibration / "image_02.yaml").string()};
+  EXPECT_EQ(dataset->item_sources({0, 0}), sources);
+  for (const std::string& source : sources) EXPECT_TRUE(fs::is_regular_file(source)) << source;
 
   // DAC's rule: truncated devkit coordinates, the last point on a pixel wins, z > 0 only.
   const Sample dac =
@@ -200,6 +209,7 @@ TEST(Kitti360, FisheyeAndPerspectiveSweepsThroughTheCalibrationChain) {
   const std::unique_ptr<Dataset> rect =
       open_dataset("kitti360", {root.string(), false, "", {{"camera", "image_00"}}});
   const Sample rectified = rect->item({0, 0});
+  EXPECT_EQ(rect->item_sources({0, 0})[4], (calibration / "perspective.txt").string());
   EXPECT_EQ(rectified.camera.to_spec(), perspective().to_spec());
   expect_labels(rectified, kPerspectiveTruth, false, "perspective");
   expect_labels(
@@ -219,6 +229,13 @@ TEST(Kitti360, FisheyeAndPerspectiveSweepsThroughTheCalibrationChain) {
           ->item({0, 0});
   EXPECT_FALSE(masked.mask[32][31].item<bool>());
   EXPECT_EQ(masked.mask.sum().item<int64_t>(), sample.mask.sum().item<int64_t>() - 1);
+  EXPECT_EQ(
+      open_dataset(
+          "kitti360",
+          {root.string(), false, "", {{"border_mask", (root / "mask_left_fisheye.npy").string()}}})
+          ->item_sources({0, 0})
+          .back(),
+      (root / "mask_left_fisheye.npy").string());
 }
 
 TEST(Kitti360, DacListsWithDistancePngs) {
@@ -247,6 +264,10 @@ TEST(Kitti360, DacListsWithDistancePngs) {
   EXPECT_EQ(sample.mask.sum().item<int64_t>(), 2);
   EXPECT_EQ(sample.distance[3][7].item<float>(), 1283.0f / 256);
   EXPECT_EQ(sample.distance[60][2].item<float>(), 80.0f);
+  // A listed frame is read from its depth PNG, not a sweep.
+  EXPECT_EQ(
+      open_dataset("kitti360", {root.string(), false, list.string()})->item_sources({0, 0})[1],
+      depth.string());
 
   // An 8-bit depth PNG, one of another size, a list naming a missing file, a bad calibration.
   io::write_image_png(depth.string(), at::zeros({kSize, kSize}, at::kByte));

@@ -177,6 +177,14 @@ TEST(KittiRaw, VelodyneSweepsBecomeDistancesOnTheirPixels) {
   EXPECT_TRUE(at::allclose(first.image, frame_image(0, 2).to(at::kFloat) / 255, 0, 1e-6));
   expect_labels(first, kTruth2, "frame 0 image_02");
   EXPECT_FALSE(first.mask[20][30].item<bool>());
+  // The files the frame is read from (data convert's manifest), each present.
+  const fs::path date = root / kDate;
+  const std::vector<std::string> sources = {
+      (date / kDrive / "image_02" / "data" / "0000000000.png").string(),
+      (date / kDrive / "velodyne_points" / "data" / "0000000000.bin").string(),
+      (date / "calib_cam_to_cam.txt").string(), (date / "calib_velo_to_cam.txt").string()};
+  EXPECT_EQ(all->item_sources({0, 0}), sources);
+  for (const std::string& source : sources) EXPECT_TRUE(fs::is_regular_file(source)) << source;
 
   // A split list in monodepth2's form picks frames and cameras (r: image_03).
   const fs::path list = root / "eigen_test.txt";

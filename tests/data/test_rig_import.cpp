@@ -1,15 +1,21 @@
-// `rig import` (data/rig_import.h, io::write_rig): KITTI-360 and KITTI raw calibrations written
-// from known rigs, imported, written and read back with io::read_rig: every camera's intrinsics
+// `rig import` (data/rig_import.h, io::write_rig): KITTI-360, KITTI raw and nuScenes
+// calibrations written from known rigs, imported, written and read back with io::read_rig: every camera's intrinsics
 // and body-from-camera pose equal the truth (a transposed or inverted transform would not);
 // bad calibrations give one error line and leave no rig file.
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
+#include <functional>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "driving_files.h"
 #include "kitti_calibration_files.h"
+#include "nuscenes_files.h"
 #include "omnipoint/data/rig_import.h"
 #include "omnipoint/io/rig.h"
 #include "support/cli_run.h"
@@ -166,6 +172,173 @@ TEST(RigImport, BadCalibrationsGiveOneLineAndNoRigFile) {
   EXPECT_FALSE(fs::exists(rig));
 }
 
+// The quaternions print 16 digits: the poses agree with the truth to rounding.
+constexpr double kNuScenesPoseTolerance = 1e-6;
+
+void expect_nuscenes_sensor(const at::Tensor& read, const test::NuScenesSensor& truth) {
+  ASSERT_EQ(read.sizes(), (at::IntArrayRef{4, 4})) << truth.channel;
+  const at::Tensor pose = truth.pose();
+  EXPECT_LT((read - pose).abs().max().item<double>(), kNuScenesPoseTolerance)
+      << truth.channel << "\nread\n"
+      << read << "\ntruth\n"
+      << pose;
+  // A conjugated quaternion (the transposed rotation) would be far from it.
+  at::Tensor conjugated = pose.clone();
+  conjugated.narrow(0, 0, 3).narrow(1, 0, 3).copy_(pose.narrow(0, 0, 3).narrow(1, 0, 3).t());
+  EXPECT_GT((read - conjugated).abs().max().item<double>(), 0.1) << truth.channel;
+}
+
+TEST(RigImport, NuScenesCamerasAndLidarInTheEgoFrame) {
+  const fs::path root = test::fresh_process_dir("omnipoint_rig_import_nuscenes");
+  const test::NuScenesMetadata truth;
+  truth.write(root / "v1.0-mini");
+  RigImportOptions options;
+  options.nuscenes_json = (root / "v1.0-mini").string();
+  std::vector<std::string> notes;
+  io::write_rig((root / "rig.json").string(), import_rig(options, &notes));
+  const io::Rig rig = io::read_rig((root / "rig.json").string());
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_EQ(notes[0], "nuScenes scene scene-0001 (the first in scene.json; --scene picks another)");
+  EXPECT_EQ(rig.frame, "ego");
+  // The cameras in sensor.json's order; the radar is no camera.
+  ASSERT_EQ(rig.cameras.size(), 6u);
+  for (size_t i = 0; i < 6; ++i) {
+    const test::NuScenesSensor& sensor = truth.sensors[i];
+    const io::RigCamera& read = rig.cameras[i];
+    EXPECT_EQ(read.name, sensor.channel);
+    // The devkit's integer pixel centres: cx = cx_K + 0.5 in ours.
+    const camera::Camera camera("PINHOLE", sensor.size[0], sensor.size[1],
+                                {sensor.intrinsic[0], sensor.intrinsic[1],
+                                 sensor.intrinsic[2] + 0.5, sensor.intrinsic[3] + 0.5});
+    expect_camera(read.camera, camera, sensor.channel);
+    expect_nuscenes_sensor(read.body_from_camera, sensor);
+  }
+  // CAM_FRONT looks forward (ego x) with its x axis to the right (ego -y), as nuScenes' does.
+  const at::Tensor front = rig.cameras[0].body_from_camera;
+  EXPECT_NEAR(front[0][2].item<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(front[1][0].item<double>(), -1.0, 1e-9);
+  EXPECT_NEAR(front[2][1].item<double>(), -1.0, 1e-9);
+  ASSERT_TRUE(rig.lidar.has_value());
+  EXPECT_EQ(rig.lidar->format, "nuscenes");
+  EXPECT_EQ(rig.lidar->floats_per_point, 5);
+  expect_nuscenes_sensor(rig.lidar->body_from_lidar, truth.sensors[6]);
+
+  // The dataroot holding the one v1.0-* folder; the second scene's calibration; some cameras in
+  // the order given; the corner reading of the principal point.
+  options.nuscenes_json = root.string();
+  options.nuscenes_scene = "scene-0002";
+  options.cameras = {"CAM_BACK_LEFT", "CAM_FRONT"};
+  options.principal_point = "corner";
+  notes.clear();
+  const io::Rig second = import_rig(options, &notes);
+  EXPECT_TRUE(notes.empty());
+  ASSERT_EQ(second.cameras.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const test::NuScenesSensor sensor = truth.sensor(options.cameras[i], 1);
+    EXPECT_EQ(second.cameras[i].name, sensor.channel);
+    const camera::Camera camera(
+        "PINHOLE", sensor.size[0], sensor.size[1],
+        {sensor.intrinsic[0], sensor.intrinsic[1], sensor.intrinsic[2], sensor.intrinsic[3]});
+    expect_camera(second.cameras[i].camera, camera, sensor.channel);
+    expect_nuscenes_sensor(second.cameras[i].body_from_camera, sensor);
+  }
+  expect_nuscenes_sensor(second.lidar->body_from_lidar, truth.sensor("LIDAR_TOP", 1));
+}
+
+TEST(RigImport, BadNuScenesTablesGiveOneLineAndNoRigFile) {
+  const fs::path root = test::fresh_process_dir("omnipoint_rig_import_nuscenes_bad");
+  const fs::path folder = root / "v1.0-mini";
+  const test::NuScenesMetadata truth;
+  const fs::path rig = root / "rig.json";
+  RigImportOptions options;
+  options.nuscenes_json = folder.string();
+  const auto import_to_rig = [&](const RigImportOptions& given) {
+    return [&rig, given] { io::write_rig(rig.string(), import_rig(given)); };
+  };
+  // Each case edits one table of a fresh copy of the tables.
+  using json = nlohmann::json;
+  const auto write_with = [&](const std::string& name, const std::function<void(json&)>& edit) {
+    truth.write(folder);
+    for (auto [file, table] : truth.tables())
+      if (file == name) {
+        edit(table);
+        write_text(folder / file, table.dump());
+      }
+  };
+  const auto record_of = [](json& table, const std::string& token) -> json& {
+    for (json& record : table)
+      if (record["token"] == token) return record;
+    throw std::logic_error("no record " + token);
+  };
+  const std::string front = "calibration_1_CAM_FRONT";
+  const std::string table = (folder / "calibrated_sensor.json").string();
+
+  // Wrong quaternions: not of unit norm; missing; three numbers.
+  write_with("calibrated_sensor.json", [&](json& t) {
+    for (json& q : record_of(t, front)["rotation"]) q = q.get<double>() * 1.01;
+  });
+  expect_error(import_to_rig(options), {table, front, "rotation", "not of unit norm", "1.01"});
+  write_with("calibrated_sensor.json", [&](json& t) { record_of(t, front).erase("rotation"); });
+  expect_error(import_to_rig(options), {table, front, "rotation: missing"});
+  write_with("calibrated_sensor.json", [&](json& t) {
+    record_of(t, front)["rotation"] = {1.0, 0.0, 0.0};
+  });
+  expect_error(import_to_rig(options), {table, "rotation", "4 numbers (w, x, y, z)"});
+  // A camera without intrinsics, one with skew, a translation of strings.
+  write_with("calibrated_sensor.json",
+             [&](json& t) { record_of(t, front)["camera_intrinsic"] = json::array(); });
+  expect_error(import_to_rig(options), {table, front, "camera_intrinsic"});
+  write_with("calibrated_sensor.json",
+             [&](json& t) { record_of(t, front)["camera_intrinsic"][0][1] = 0.5; });
+  expect_error(import_to_rig(options), {table, "camera_intrinsic", "skew"});
+  write_with("calibrated_sensor.json", [&](json& t) {
+    record_of(t, front)["translation"] = {"1", "2", "3"};
+  });
+  expect_error(import_to_rig(options), {table, front, "translation"});
+  // Malformed JSON, a missing table.
+  truth.write(folder);
+  write_text(folder / "calibrated_sensor.json", "[{\"token\": \"a\",");
+  expect_error(import_to_rig(options), {table, "not valid JSON"});
+  truth.write(folder);
+  fs::remove(folder / "sensor.json");
+  expect_error(import_to_rig(options), {(folder / "sensor.json").string(), "cannot read"});
+  // sample_data: no image size; a calibration token of no record; no sample_token.
+  const std::string data = (folder / "sample_data.json").string();
+  write_with("sample_data.json", [&](json& t) { record_of(t, "data_1a_CAM_BACK").erase("width"); });
+  expect_error(import_to_rig(options), {data, "data_1a_CAM_BACK", "width: missing"});
+  write_with("sample_data.json", [&](json& t) {
+    record_of(t, "data_1a_CAM_BACK")["calibrated_sensor_token"] = "nowhere";
+  });
+  expect_error(import_to_rig(options), {data, "calibrated_sensor_token", "no such record"});
+  write_with("sample_data.json",
+             [&](json& t) { record_of(t, "data_2a_CAM_BACK").erase("sample_token"); });
+  expect_error(import_to_rig(options), {data, "data_2a_CAM_BACK", "sample_token: missing"});
+  // scene.json: not an array; an unknown scene; an unknown camera channel; a radar as a camera.
+  write_with("scene.json", [&](json& t) { t = json::object(); });
+  expect_error(import_to_rig(options), {(folder / "scene.json").string(), "array"});
+  truth.write(folder);
+  RigImportOptions scene = options;
+  scene.nuscenes_scene = "scene-0099";
+  expect_error(import_to_rig(scene), {"scene.json", "no scene named scene-0099"});
+  RigImportOptions camera = options;
+  camera.cameras = {"CAM_SIDE"};
+  expect_error(import_to_rig(camera), {"scene-0001", "no camera channel CAM_SIDE"});
+  camera.cameras = {"RADAR_FRONT"};
+  expect_error(import_to_rig(camera), {"no camera channel RADAR_FRONT"});
+  // Not a folder; a folder without tables; a scene without a nuScenes folder.
+  RigImportOptions missing = options;
+  missing.nuscenes_json = (root / "nothing").string();
+  expect_error(import_to_rig(missing), {"nothing", "not a folder"});
+  missing.nuscenes_json = (root / "empty").string();
+  fs::create_directories(root / "empty");
+  expect_error(import_to_rig(missing), {"empty", "no calibrated_sensor.json"});
+  RigImportOptions kitti;
+  kitti.kitti_raw_date = root.string();
+  kitti.nuscenes_scene = "scene-0001";
+  expect_error(import_to_rig(kitti), {"scene", "nuScenes"});
+  EXPECT_FALSE(fs::exists(rig));
+}
+
 TEST(RigImportCommand, WritesTheRigOrOneErrorLine) {
   const fs::path folder = test::fresh_process_dir("omnipoint_rig_import_cli");
   const test::Kitti360Calibration truth;
@@ -189,6 +362,38 @@ TEST(RigImportCommand, WritesTheRigOrOneErrorLine) {
   EXPECT_EQ(run.err, "omnipoint: error: " + (folder / "none").string() +
                          ": not a folder (a KITTI raw date folder)\n");
   EXPECT_FALSE(fs::exists(missing));
+}
+
+TEST(RigImportCommand, NuScenesNamesTheSceneItChose) {
+  const fs::path folder = test::fresh_process_dir("omnipoint_rig_import_nuscenes_cli");
+  const test::NuScenesMetadata truth;
+  truth.write(folder / "v1.0-mini");
+  const fs::path rig = folder / "rig.json";
+  test::CliRun run = test::run_omnipoint(
+      "rig import --nuscenes-json " + folder.string() + " --out " + rig.string(), folder / "run");
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out,
+            "nuScenes scene scene-0001 (the first in scene.json; --scene picks another)\n" +
+                rig.string() +
+                ": 6 cameras (CAM_FRONT PINHOLE, CAM_FRONT_RIGHT PINHOLE, CAM_BACK_RIGHT "
+                "PINHOLE, CAM_BACK PINHOLE, CAM_BACK_LEFT PINHOLE, CAM_FRONT_LEFT PINHOLE) and a "
+                "nuscenes LiDAR in the body frame ego\n");
+  expect_nuscenes_sensor(io::read_rig(rig.string()).cameras[3].body_from_camera, truth.sensors[3]);
+
+  write_text(folder / "v1.0-mini" / "sensor.json", "[{\"token\": 1}]");
+  const fs::path bad = folder / "bad.json";
+  run = test::run_omnipoint(
+      "rig import --nuscenes-json " + folder.string() + " --scene scene-0002 --out " + bad.string(),
+      folder / "run");
+  EXPECT_NE(run.status, 0);
+  EXPECT_EQ(run.err, "omnipoint: error: " + (folder / "v1.0-mini" / "sensor.json").string() +
+                         ": record (no token): token: expected a string\n");
+  EXPECT_FALSE(fs::exists(bad));
+  run = test::run_omnipoint("rig import --kitti360 " + folder.string() + " --nuscenes-json " +
+                                folder.string() + " --out " + bad.string(),
+                            folder / "run");
+  EXPECT_NE(run.status, 0);
+  EXPECT_FALSE(fs::exists(bad));
 }
 
 }  // namespace

@@ -115,6 +115,22 @@ fs::path sweep_of(const fs::path& root, const fs::path& image) {
          (image.stem().string() + ".bin");
 }
 
+// The files a frame is read from: its image, its depth PNG or else its sweep, the calibration
+// files of its camera (calibrated_camera) and the border mask.
+std::vector<std::string> frame_sources(const fs::path& root, const Frame& frame,
+                                       const Kitti360Options& options) {
+  const fs::path calibration = root / "calibration";
+  const std::string camera_name = camera_of(frame.image);
+  std::vector<std::string> sources = {
+      frame.image, frame.depth.empty() ? sweep_of(root, frame.image).string() : frame.depth,
+      (calibration / "calib_cam_to_pose.txt").string(),
+      (calibration / "calib_cam_to_velo.txt").string(),
+      (calibration / (is_fisheye(camera_name) ? camera_name + ".yaml" : "perspective.txt"))
+          .string()};
+  if (!options.border_mask.empty()) sources.push_back(options.border_mask);
+  return sources;
+}
+
 Sample read_kitti360_frame(const fs::path& root, const Frame& frame,
                            const Kitti360Options& options) {
   const std::string camera_name = camera_of(frame.image);
@@ -228,8 +244,12 @@ std::unique_ptr<Dataset> open_kitti360(const DatasetLocation& location) {
   }
   const fs::path root = location.path;
   return std::make_unique<ListDataset>(
-      std::move(images), [root, depths, options](const std::string& image) {
+      std::move(images),
+      [root, depths, options](const std::string& image) {
         return read_kitti360_frame(root, {image, depths->at(image)}, options);
+      },
+      [root, depths, options](const std::string& image) {
+        return frame_sources(root, {image, depths->at(image)}, options);
       });
 }
 

@@ -47,6 +47,18 @@ fs::path sweep_of(const fs::path& image) {
          (image.stem().string() + ".bin");
 }
 
+// The date folder of a frame image DATE/DRIVE/image_0X/data/STEM.png, holding the calibration.
+fs::path date_of(const fs::path& image) {
+  return image.parent_path().parent_path().parent_path().parent_path();
+}
+
+// The files a frame is read from: its image, its sweep and the date's two calibrations.
+std::vector<std::string> frame_sources(const std::string& image_name) {
+  const fs::path image(image_name);
+  return {image_name, sweep_of(image).string(), (date_of(image) / kCamToCam).string(),
+          (date_of(image) / kVeloToCam).string()};
+}
+
 bool is_frame_image(const fs::path& path) {
   const std::string ext = path.extension().string();
   return ext == ".png" || ext == ".jpg";  // .jpg: monodepth2's re-encoded copies
@@ -56,7 +68,7 @@ bool is_frame_image(const fs::path& path) {
 Sample read_kitti_raw_frame(const std::string& image_name, PrincipalPoint reading) {
   const fs::path image(image_name);
   const std::string camera_name = image.parent_path().parent_path().filename().string();
-  const fs::path date = image.parent_path().parent_path().parent_path().parent_path();
+  const fs::path date = date_of(image);
   const std::string cam_calib = (date / kCamToCam).string();
   const std::string velo_calib = (date / kVeloToCam).string();
   const KittiRawCamera camera =
@@ -136,9 +148,10 @@ std::unique_ptr<Dataset> open_kitti_raw(const DatasetLocation& location) {
     throw std::runtime_error(what + ": holds no KITTI raw frames (DATE/" + kCamToCam +
                              ", DATE/DRIVE/" + camera +
                              "/data/*.png with velodyne_points/data/*.bin)");
-  return std::make_unique<ListDataset>(std::move(frames), [reading](const std::string& image) {
-    return read_kitti_raw_frame(image, reading);
-  });
+  return std::make_unique<ListDataset>(
+      std::move(frames),
+      [reading](const std::string& image) { return read_kitti_raw_frame(image, reading); },
+      frame_sources);
 }
 
 }  // namespace
