@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "driving_files.h"
-#include "kitti_calibration_files.h"
+#include "native_roots.h"
 #include "omnipoint/data/dataset.h"
 #include "omnipoint/data/dataset_convert.h"
 #include "omnipoint/io/atomic_file.h"
@@ -31,62 +31,11 @@ namespace fs = std::filesystem;
 using test::expect_error;
 using test::frame_stem;
 
-const char* const kDate = "2011_09_26";
-const char* const kDrive = "2011_09_26_drive_0001_sync";
-
-fs::path sweep_path(const fs::path& root, int frame) {
-  return root / kDate / kDrive / "velodyne_points" / "data" / (frame_stem(frame) + ".bin");
-}
-
-// A KITTI raw root: `frames` frames of image_02 and image_03, each sweep holding points in
-// front of camera 2 at distances that tell the frames apart.
-fs::path write_kitti_raw(const std::string& name, int frames) {
-  const fs::path root = test::fresh_process_dir(name);
-  const test::KittiRawCalibration calibration;
-  calibration.write(root / kDate);
-  const camera::Camera camera = calibration.intrinsics[2].camera();
-  for (int frame = 0; frame < frames; ++frame) {
-    const at::Tensor pixels =
-        at::tensor({3.25, 4.75, 20.5, 10.25, 40.75, 30.5, 11.5, 25.5}, at::kDouble).view({4, 2});
-    const at::Tensor points =
-        camera.unproject(pixels).rays *
-        at::tensor({4.5, 7.25, 12.0, 5.0}, at::kDouble).add(frame).view({4, 1});
-    test::write_sweep(sweep_path(root, frame),
-                      test::transformed(calibration.velo_from_camera(2), points));
-    for (int c : {2, 3}) {
-      const fs::path image = root / kDate / kDrive / ("image_0" + std::to_string(c)) / "data" /
-                             (frame_stem(frame) + ".png");
-      fs::create_directories(image.parent_path());
-      const at::Tensor pixels_rgb =
-          (at::arange(38 * 50 * 3, at::kLong).view({38, 50, 3}) * 7 + frame * 11 + c)
-              .remainder(256)
-              .to(at::kByte);
-      io::write_image_png(image.string(), pixels_rgb);
-    }
-  }
-  return root;
-}
-
-// A Stanford2D3D root: one panorama in each of area_1 and area_5a (16-bit depth in 1/512 m,
-// 65535 missing along the top rows).
-fs::path write_stanford2d3d(const std::string& name) {
-  const fs::path root = test::fresh_process_dir(name);
-  const int64_t width = 32, height = 16;
-  for (const std::string area : {"area_1", "area_5a"}) {
-    const std::string stem = "camera_0a1b_" + area + "_office_1_frame_equirectangular_domain_";
-    const fs::path pano = root / area / "pano";
-    fs::create_directories(pano / "rgb");
-    fs::create_directories(pano / "depth");
-    io::write_image_png((pano / "rgb" / (stem + "rgb.png")).string(),
-                        (at::arange(height * width * 3, at::kLong).view({height, width, 3}) * 5)
-                            .remainder(256)
-                            .to(at::kByte));
-    at::Tensor code = at::arange(height * width, at::kLong).view({height, width}) * 3 + 700;
-    code.narrow(0, 0, 2).fill_(65535);
-    io::write_image_png((pano / "depth" / (stem + "depth.png")).string(), code.to(at::kInt));
-  }
-  return root;
-}
+using test::kitti_raw_sweep_path;
+using test::kKittiRawDate;
+using test::kKittiRawDrive;
+using test::write_kitti_raw;
+using test::write_stanford2d3d;
 
 // The converted folder holds the same samples as the source dataset, item by item.
 void expect_same_samples(const Dataset& source, const std::vector<int64_t>& indices,
@@ -149,8 +98,8 @@ TEST(DatasetConvert, KittiRawFramesReopenAsTheSameSamples) {
   ASSERT_EQ(manifest.size(), 3u);
   for (int64_t i = 0; i < 3; ++i) {
     const nlohmann::json& line = manifest[static_cast<size_t>(i)];
-    EXPECT_EQ(line["sample"], std::string(kDate) + "-" + kDrive + "-image_02-data-" +
-                                  frame_stem(static_cast<int>(i)));
+    EXPECT_EQ(line["sample"], std::string(kKittiRawDate) + "-" + kKittiRawDrive +
+                                  "-image_02-data-" + frame_stem(static_cast<int>(i)));
     EXPECT_EQ(line["item"], source->item_name({i, 0}));
     EXPECT_EQ(line["sources"], nlohmann::json(source->item_sources({i, 0})));
     const nlohmann::json meta = nlohmann::json::parse(
@@ -231,8 +180,8 @@ TEST(DatasetConvert, ABadItemIsSkippedAndNamed) {
   if (!io::image_io_available()) GTEST_SKIP() << "no image file I/O in this build";
   const fs::path root = write_kitti_raw("omnipoint_convert_bad_item", 3);
   // Frame 1's sweep truncated mid-record.
-  const std::string bytes = io::read_file(sweep_path(root, 1).string());
-  test::write_text(sweep_path(root, 1), bytes.substr(0, bytes.size() - 6));
+  const std::string bytes = io::read_file(kitti_raw_sweep_path(root, 1).string());
+  test::write_text(kitti_raw_sweep_path(root, 1), bytes.substr(0, bytes.size() - 6));
   const fs::path out = root.parent_path() / (root.filename().string() + "_out");
   fs::remove_all(out);
   struct Warnings : DatasetConvertObserver {
@@ -257,7 +206,7 @@ TEST(DatasetConvert, ABadItemIsSkippedAndNamed) {
   DatasetConvertOptions only_bad = options_for("kitti-raw", root, out.string() + "_none");
   fs::remove_all(only_bad.output_path);
   only_bad.every = 5;  // frame 0 ...
-  test::write_text(sweep_path(root, 0), bytes.substr(0, 5));
+  test::write_text(kitti_raw_sweep_path(root, 0), bytes.substr(0, 5));
   expect_error([&] { DatasetConvert(only_bad).Run(); },
                {"nothing converted", "1 of 1", frame_stem(0) + ".bin"});
   EXPECT_FALSE(fs::exists(only_bad.output_path));
@@ -314,8 +263,8 @@ TEST(DatasetConvert, FolderNamesFromItemNames) {
 TEST(DataConvertCommand, SummaryWarningsAndErrors) {
   if (!io::image_io_available()) GTEST_SKIP() << "no image file I/O in this build";
   const fs::path root = write_kitti_raw("omnipoint_convert_cli", 2);
-  const std::string bytes = io::read_file(sweep_path(root, 1).string());
-  test::write_text(sweep_path(root, 1), bytes.substr(0, bytes.size() - 6));
+  const std::string bytes = io::read_file(kitti_raw_sweep_path(root, 1).string());
+  test::write_text(kitti_raw_sweep_path(root, 1), bytes.substr(0, bytes.size() - 6));
   const fs::path out = root.parent_path() / (root.filename().string() + "_out");
   fs::remove_all(out);
   const fs::path scratch = root.parent_path() / (root.filename().string() + "_run");

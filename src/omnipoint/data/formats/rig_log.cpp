@@ -166,9 +166,14 @@ std::unique_ptr<Dataset> open_rig_log(const DatasetLocation& location) {
     names.push_back(manifest + " line " + std::to_string(frame.line) + ": " + frame.image);
     by_name->emplace(names.back(), std::move(frame));
   }
-  return std::make_unique<ListDataset>(std::move(names), [by_name](const std::string& name) {
-    return read_rig_frame(by_name->at(name));
-  });
+  // An item's sources: its image and cloud (`data check` looks for them, `convert` lists them).
+  return std::make_unique<ListDataset>(
+      std::move(names),
+      [by_name](const std::string& name) { return read_rig_frame(by_name->at(name)); },
+      [by_name](const std::string& name) {
+        const RigFrame& frame = by_name->at(name);
+        return std::vector<std::string>{frame.image, frame.lidar};
+      });
 }
 
 }  // namespace
