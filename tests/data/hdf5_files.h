@@ -24,7 +24,7 @@ inline hid_t float16_type() {
 // `values` (float32 or int32) as the array `name` of a new HDF5 file, stored as `file_type`,
 // chunked and gzip-compressed at level 9 as the dataset's files are.
 inline void write_hdf5(const std::filesystem::path& path, const at::Tensor& values, hid_t file_type,
-                const std::string& name = "dataset") {
+                       const std::string& name = "dataset") {
   std::filesystem::create_directories(path.parent_path());
   const at::Tensor data = values.contiguous();
   std::vector<hsize_t> dims(data.sizes().begin(), data.sizes().end());

@@ -17,11 +17,11 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
-#include <sstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -98,7 +98,8 @@ StandIn moge(const fs::path& root) {
   // PNG bytes in image.jpg: the reader decodes by content.
   io::write_image_png((root / "a" / "image.jpg").string(), pattern(12, 16));
   write_moge_depth((root / "a" / "depth.png").string(), at::full({12, 16}, 2.5F));
-  write_text(root / "a" / "meta.json", R"({"intrinsics": [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]})");
+  write_text(root / "a" / "meta.json",
+             R"({"intrinsics": [[0.75, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]]})");
   write_text(root / ".index.txt", "a\n");
   return {{root.string(), true}, 1, {"PINHOLE"}};
 }
@@ -119,12 +120,12 @@ StandIn kitti360(const fs::path& root) {
   // image_02's frame -> the Velodyne's, through the pose frame (calib_cam_to_velo's chain).
   const at::Tensor velo_from_camera =
       at::matmul(at::inverse(calibration.body_from_velo), calibration.pose_from_camera(2));
-  test::write_sweep(root / "data_3d_raw" / sequence / "velodyne_points" / "data" /
-                        (test::frame_stem(0) + ".bin"),
-                    test::transformed(velo_from_camera, points));
-  write_png(root / "data_2d_raw" / sequence / "image_02" / "data_rgb" /
-                (test::frame_stem(0) + ".png"),
-            pattern(64, 64));
+  test::write_sweep(
+      root / "data_3d_raw" / sequence / "velodyne_points" / "data" / (test::frame_stem(0) + ".bin"),
+      test::transformed(velo_from_camera, points));
+  write_png(
+      root / "data_2d_raw" / sequence / "image_02" / "data_rgb" / (test::frame_stem(0) + ".png"),
+      pattern(64, 64));
   return {{root.string()}, 1, {"MEI"}};
 }
 
@@ -155,8 +156,8 @@ StandIn pano3d(const fs::path& root) {
       for (int column = 0; column < 32; ++column)
         depth.at<float>(row, column) =
             row == 0 ? std::numeric_limits<float>::infinity() : 1.5f + 0.125f * column;
-    EXPECT_TRUE(cv::imwrite((root / "2t7WUuJeko7" / "0_spherical_1_depth_center_0.exr").string(),
-                            depth));
+    EXPECT_TRUE(
+        cv::imwrite((root / "2t7WUuJeko7" / "0_spherical_1_depth_center_0.exr").string(), depth));
     return {{root.string()}, 1, {"EQUIRECTANGULAR"}};
   }
 #endif
@@ -212,8 +213,9 @@ StandIn hypersim(const fs::path& root) {
 
 StandIn vkitti2(const fs::path& root) {
   const fs::path frames = root / "Scene01" / "clone" / "frames";
-  write_text(root / "Scene01" / "clone" / "intrinsic.txt",
-             "frame cameraID K[0,0] K[1,1] K[0,2] K[1,2]\n0 0 20 20 15.5 7.5\n0 1 20 20 15.5 7.5\n");
+  write_text(
+      root / "Scene01" / "clone" / "intrinsic.txt",
+      "frame cameraID K[0,0] K[1,1] K[0,2] K[1,2]\n0 0 20 20 15.5 7.5\n0 1 20 20 15.5 7.5\n");
   write_png(frames / "rgb" / "Camera_0" / "rgb_00000.jpg", pattern(16, 32));
   // Centimetre z-depth, 65535 the sky.
   write_png16(frames / "depth" / "Camera_0" / "depth_00000.png",
@@ -336,8 +338,8 @@ TEST(EveryFormat, ChecksAndConvertsItsStandInRoot) {
       const std::string what = entry.at("item").get<std::string>();
       ASSERT_EQ(index_of.count(what), 1u) << what;
       const Sample truth = source->item({index_of.at(what), 0});
-      const Sample read =
-          read_sample((fs::path(convert.output_path) / entry.at("sample").get<std::string>()).string());
+      const Sample read = read_sample(
+          (fs::path(convert.output_path) / entry.at("sample").get<std::string>()).string());
       EXPECT_EQ(read.camera, truth.camera) << what;
       EXPECT_TRUE(at::equal(read.distance, truth.distance)) << what;
       EXPECT_TRUE(at::equal(read.mask, truth.mask)) << what;

@@ -44,17 +44,21 @@ TEST(NativeSources, KittiRawAndRigLogSourcesTrainTogether) {
 
   // The config file: the kitti-raw drive at 3:1, the rig's frames at 4:3.
   const std::string text = R"({
-  "output_dir": ")" + (dir / "run").string() + R"(",
+  "output_dir": ")" + (dir / "run").string() +
+                           R"(",
   "seed": 5,
   "threads": 1,
-  "model": )" + tiny_model_json().dump() + R"(,
+  "model": )" + tiny_model_json().dump() +
+                           R"(,
   "data": {
     "batch_size": 2,
     "num_tokens": [4, 4],
     "datasets": [
-      {"format": "kitti-raw", "root": ")" + (dir / "drive").string() + R"(",
+      {"format": "kitti-raw", "root": ")" +
+                           (dir / "drive").string() + R"(",
        "image_size": [48, 16]},
-      {"format": "rig-log", "root": ")" + (dir / "rig").string() + R"(",
+      {"format": "rig-log", "root": ")" +
+                           (dir / "rig").string() + R"(",
        "image_size": [32, 24]}
     ]
   },
