@@ -81,6 +81,10 @@ def js(value):
     return json.dumps(value, indent=1).encode()
 
 
+def jsonl(value):  # one line of a JSON-lines file
+    return json.dumps(value).encode() + b"\n"
+
+
 # A car's rig (io/rig.h): a forward pinhole looking along the body's x axis (camera z -> body x,
 # camera x -> -body y, camera y -> -body z), a MEI fisheye looking left, a KITTI LiDAR.
 RIG_FRONT = {"name": "front", "camera": "PINHOLE 1920 1080 1000 1000 959.5 539.5",
@@ -439,6 +443,18 @@ SEEDS = {
                                          "params": [30, 30, 32, 24, 0.01, 0, 0, 0, 0.001, 0, 0.0004, 0, 0, 0, 0, 0]}),
     "eval_suite/paper_suite.json": open(os.path.join(ROOT, "benchmarks", "paper_suite.json"), "rb").read(),
     "eval_suite/minimal.json": js(SUITE),
+    # A rig log's manifest, read in a scratch root holding image.png, lidar.bin, calib.txt and
+    # cameras.txt (tests/fuzz/parsers.h): the camera as a spec, a file and a JSON object; the
+    # transform as 12 and 16 numbers and as a file; the LiDAR formats by name and count.
+    "rig_log/manifest.jsonl": b"".join(jsonl(line) for line in [
+        {"image": "image.png", "camera": "PINHOLE 64 48 50 50 32 24", "lidar": "lidar.bin",
+         "lidar_to_camera": [0, -1, 0, 0, 0, 0, -1, -0.08, 1, 0, 0, -0.27]},
+        {"image": "image.png", "camera": "cameras.txt", "lidar": "lidar.bin",
+         "lidar_to_camera": "calib.txt", "lidar_format": "nuscenes"},
+        {"image": "image.png", "camera": {"model": "PINHOLE", "width": 64, "height": 48,
+                                           "params": [50, 50, 32, 24]},
+         "lidar": "lidar.bin", "lidar_to_camera": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
+         "lidar_format": 6}]) + b"\r\n",
     "train_config/minimal.json": js(MINIMAL_TRAIN),
     "train_config/full.json": js(FULL_TRAIN),
     "checkpoint_metadata/omnipoint_default.json": BUNDLED_CONFIG,
@@ -644,6 +660,28 @@ MALFORMED = {  # name: (bytes, fragment the error message must contain)
                                                  "params": [890.9, 890.5, 477.8, 470.3, 0.0168, 1.6549, 0.00042, 0.00042, 2.2134]}),
                                              "both radial (k1 k2) and tangential (p1 p2) terms are non-zero"),
     "eval_suite/not_json.json": (b'{"sets": [', "not JSON"),
+    "rig_log/not_object.jsonl": (b"[1, 2]\n", "line 1: not a JSON object"),
+    "rig_log/empty.jsonl": (b"\n \r\n", "the manifest names no frame"),
+    "rig_log/no_image.jsonl": (jsonl({"camera": "PINHOLE 64 48 50 50 32 24", "lidar": "lidar.bin",
+                                   "lidar_to_camera": "calib.txt"}), "\"image\" must be a path (a string)"),
+    "rig_log/climbs.jsonl": (jsonl({"image": "../image.png", "camera": "PINHOLE 64 48 50 50 32 24",
+                                 "lidar": "lidar.bin", "lidar_to_camera": "calib.txt"}),
+                             "\"image\": \"../image.png\" is not a path under the root"),
+    "rig_log/missing_file.jsonl": (jsonl({"image": "image.png", "camera": "PINHOLE 64 48 50 50 32 24",
+                                       "lidar": "sweep.bin", "lidar_to_camera": "calib.txt"}),
+                                   "line 1: no file"),
+    "rig_log/no_camera.jsonl": (jsonl({"image": "image.png", "lidar": "lidar.bin", "lidar_to_camera": "calib.txt"}),
+                                "no \"camera\", and no camera option for all frames"),
+    "rig_log/transform_count.jsonl": (jsonl({"image": "image.png", "camera": "PINHOLE 64 48 50 50 32 24",
+                                          "lidar": "lidar.bin", "lidar_to_camera": [1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0]}),
+                                      "expected 16 numbers (4x4) or 12 (3x4), got 11"),
+    "rig_log/transform_text.jsonl": (jsonl({"image": "image.png", "camera": "PINHOLE 64 48 50 50 32 24",
+                                         "lidar": "lidar.bin", "lidar_to_camera": [1, "0", 0]}),
+                                     "\"lidar_to_camera\" holds \"0\", not a number"),
+    "rig_log/lidar_format.jsonl": (jsonl({"image": "image.png", "camera": "PINHOLE 64 48 50 50 32 24",
+                                       "lidar": "lidar.bin", "lidar_to_camera": "calib.txt",
+                                       "lidar_format": "velodyne"}),
+                                   "LiDAR format 'velodyne': expected kitti"),
     "eval_suite/no_sets.json": (js({"name": "s"}), "sets: missing"),
     "eval_suite/unknown_key.json": (js(dict(SUITE, bogus=1)), "bogus: unknown key"),
     "eval_suite/column.json": (js(dict(SUITE, columns={"points": "points"})),

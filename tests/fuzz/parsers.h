@@ -8,7 +8,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
+#include "omnipoint/data/dataset.h"
 #include "omnipoint/data/formats/kitti_text.h"
 #include "omnipoint/data/formats/native.h"
 #include "omnipoint/data/formats/native_text.h"
@@ -222,6 +225,58 @@ inline Parser camera_parser() {
         within_contract([&] { camera::parse_camera_file(b, s, "", camera::ImageSize{64, 48}); });
       }};
 }
+// A rig log's manifest.jsonl (the "rig-log" format, data/formats/rig_log.cpp), opened as a
+// dataset: the bytes become the manifest of a scratch root holding the files a line may name
+// (image.png, lidar.bin, a transform calib.txt, a camera file cameras.txt), so its lines' paths,
+// cameras, transforms and LiDAR formats are read as a real root's are. The reader names the
+// manifest by its scratch path; the error carries it as `source`.
+class RigLogScratch {
+ public:
+  RigLogScratch() {
+    std::string pattern =
+        (std::filesystem::temp_directory_path() / "omnipoint_fuzz_rig_log_XXXXXX").string();
+    if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("no scratch folder");
+    root_ = pattern;
+    const auto write = [&](const char* name, const std::string& text) {
+      std::ofstream(root_ / name, std::ios::binary) << text;
+    };
+    write("image.png", "");
+    write("lidar.bin", "");
+    write("calib.txt", "0 -1 0 0\n0 0 -1 -0.08\n1 0 0 -0.27\n");
+    write("cameras.txt", "# CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]\n1 PINHOLE 64 48 50 50 32 24\n");
+  }
+  ~RigLogScratch() {
+    std::error_code ignored;
+    std::filesystem::remove_all(root_, ignored);
+  }
+  RigLogScratch(const RigLogScratch&) = delete;
+  RigLogScratch& operator=(const RigLogScratch&) = delete;
+  const std::filesystem::path& root() const { return root_; }
+
+ private:
+  std::filesystem::path root_;
+};
+// `text` with every `name` in it replaced by `by`.
+inline std::string renamed(std::string text, const std::string& name, const std::string& by) {
+  for (auto at = text.find(name); at != std::string::npos; at = text.find(name, at + by.size()))
+    text.replace(at, name.size(), by);
+  return text;
+}
+inline void parse_rig_log_manifest(const std::string& b, const std::string& s) {
+  static const RigLogScratch scratch;
+  const std::string manifest = (scratch.root() / "manifest.jsonl").string();
+  std::ofstream(manifest, std::ios::binary | std::ios::trunc) << b;
+  try {
+    data::open_dataset("rig-log", {scratch.root().string(), false, manifest});
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(renamed(error.what(), manifest, s));
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error(renamed(error.what(), manifest, s));
+  }
+}
+inline Parser rig_log_parser() {
+  return {"rig_log", parse_rig_log_manifest};
+}
 // A benchmark suite file (`omnipoint eval --suite`), its split lists relative to no folder.
 inline Parser eval_suite_parser() {
   return {"eval_suite",
@@ -364,7 +419,8 @@ inline const std::vector<Parser>& parsers() {
                                             hub_model_info_parser(),
                                             native_text_parser(),
                                             kitti_text_parser(),
-                                            eval_suite_parser()};
+                                            eval_suite_parser(),
+                                            rig_log_parser()};
   return table;
 }
 
