@@ -455,6 +455,8 @@ SEEDS = {
                                            "params": [50, 50, 32, 24]},
          "lidar": "lidar.bin", "lidar_to_camera": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
          "lidar_format": 6}]) + b"\r\n",
+    "rig_log/test_split.jsonl": jsonl({"image": "image.png", "camera": "OPENCV_FISHEYE 64 48 30 30 32 24 0.1 0 0 0",
+                                       "lidar": "lidar.bin", "lidar_to_camera": "calib.txt", "lidar_format": "kitti"}),
     "train_config/minimal.json": js(MINIMAL_TRAIN),
     "train_config/full.json": js(FULL_TRAIN),
     "checkpoint_metadata/omnipoint_default.json": BUNDLED_CONFIG,
