@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "data/open_error.h"
 #include "omnipoint/data/dataset.h"
 #include "omnipoint/data/dataset_formats.h"
 #include "omnipoint/data/formats/native.h"
@@ -38,19 +39,8 @@ namespace omnipoint::data {
 namespace {
 
 namespace fs = std::filesystem;
+using test::open_error;
 using Vec3 = std::array<double, 3>;
-
-#define EXPECT_HAS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << (text) << " lacks " << (part)
-
-std::string open_error(const std::string& format, const DatasetLocation& location) {
-  try {
-    open_dataset(format, location);
-  } catch (const std::exception& error) {
-    return error.what();
-  }
-  return "(no error)";
-}
 
 #ifdef OMNIPOINT_WITH_OPENCV
 

@@ -30,6 +30,7 @@
 
 #include "data/driving_files.h"
 #include "data/hdf5_files.h"
+#include "data/open_error.h"
 #include "omnipoint/data/dataset.h"
 #include "omnipoint/data/formats/native_text.h"
 #include "omnipoint/data/sample.h"
@@ -41,6 +42,7 @@ namespace omnipoint::data {
 namespace {
 
 namespace fs = std::filesystem;
+using test::open_error;
 using Vec3 = std::array<double, 3>;
 using test::write_text;
 
@@ -78,18 +80,6 @@ void expect_points(const Sample& sample, const at::Tensor& points, const at::Ten
   EXPECT_LE(at::where(sample.mask, excess, at::zeros_like(excess)).max().item<double>(), 0.0);
   EXPECT_TRUE(at::equal(sample.distance == 0, ~sample.mask));
 }
-
-std::string open_error(const std::string& format, const DatasetLocation& location) {
-  try {
-    open_dataset(format, location);
-  } catch (const std::exception& error) {
-    return error.what();
-  }
-  return "(no error)";
-}
-
-#define EXPECT_HAS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << (text) << " lacks " << (part)
 
 class RenderedFormats : public ::testing::Test {
  protected:
