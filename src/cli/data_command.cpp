@@ -53,6 +53,19 @@ nlohmann::json report_json(const data::DatasetCheckReport& report) {
       {"distance_range", {report.distance_min, report.distance_max}}};
 }
 
+// The options naming a dataset on disk, as `check` and `convert` take them: its format, root,
+// split, format options (NAME=VALUE, parsed into location.options by the callback) and --metric.
+void add_dataset_options(CLI::App* command, std::string& format, data::DatasetLocation& location,
+                         std::vector<std::string>& given) {
+  command->add_option("--format", format, "The dataset's format (`data formats`)")->required();
+  command->add_option("--root", location.path, "The dataset's root folder")->required();
+  command->add_option("--split", location.split,
+                      "One of the format's named splits, or a split list file");
+  command->add_option("--option", given, "A format option NAME=VALUE (repeatable)");
+  command->add_flag("--metric", location.metric,
+                    "Formats without their own flag (moge): the depth is in metres");
+}
+
 void add_check_command(CLI::App& parent) {
   auto* command = parent.add_subcommand(
       "check",
@@ -61,14 +74,7 @@ void add_check_command(CLI::App& parent) {
       "distance range; exits 1 when files are missing or items do not read");
   auto options = std::make_shared<data::DatasetCheckOptions>();
   auto given = std::make_shared<std::vector<std::string>>();
-  command->add_option("--format", options->format, "The dataset's format (`data formats`)")
-      ->required();
-  command->add_option("--root", options->location.path, "The dataset's root folder")->required();
-  command->add_option("--split", options->location.split,
-                      "One of the format's named splits, or a split list file");
-  command->add_option("--option", *given, "A format option NAME=VALUE (repeatable)");
-  command->add_flag("--metric", options->location.metric,
-                    "Formats without their own flag (moge): the depth is in metres");
+  add_dataset_options(command, options->format, options->location, *given);
   command->add_option("--limit", options->limit,
                       "Read this many items, spread over the dataset (default 0: all)");
   command->add_option("--sheet", options->sheet_path,
@@ -112,22 +118,15 @@ void add_convert_command(CLI::App& parent) {
       "warning; exits 1 when nothing was converted");
   auto options = std::make_shared<data::DatasetConvertOptions>();
   auto given = std::make_shared<std::vector<std::string>>();
-  command->add_option("--format", options->format, "The dataset's format (`data formats`)")
-      ->required();
-  command->add_option("--root", options->location.path, "The dataset's root folder")->required();
+  add_dataset_options(command, options->format, options->location, *given);
   command->add_option("--out", options->output_path, "The folder of sample folders to write")
       ->required();
-  command->add_option("--split", options->location.split,
-                      "One of the format's named splits, or a split list file");
   command->add_option("--camera", options->camera,
                       "The dataset's camera name (image_02): the format's option camera");
   command->add_option("--sequence", options->sequence,
                       "The dataset's sequence/scene names: the format's option sequence");
   command->add_option("--every", options->every, "Every K-th item (default 1)");
   command->add_option("--limit", options->limit, "At most N items (default 0: all)");
-  command->add_option("--option", *given, "A format option NAME=VALUE (repeatable)");
-  command->add_flag("--metric", options->location.metric,
-                    "Formats without their own flag (moge): the depth is in metres");
   command->add_flag("--resume", options->resume,
                     "Keep the items whose sample folders exist in --out (an interrupted run)");
   command->add_flag("--overwrite", options->overwrite,
