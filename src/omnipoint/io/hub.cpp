@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -216,11 +217,14 @@ std::optional<CachedModel> find_cached(const ModelReference& reference, const fs
   return model;
 }
 
-// `target` at `link`, replacing what was there, by a rename.
+// `target` at `link`, replacing what was there, by a rename. The staging name is unique to the
+// call: two threads of one process may enter the same model at once.
 void place_symlink(const fs::path& target, const fs::path& link) {
+  static std::atomic<std::uint64_t> calls{0};
   fs::create_directories(link.parent_path());
   const fs::path staging =
-      link.parent_path() / ("." + link.filename().string() + ".link-" + std::to_string(getpid()));
+      link.parent_path() / ("." + link.filename().string() + ".link-" + std::to_string(getpid()) +
+                            "-" + std::to_string(calls.fetch_add(1)));
   std::error_code error;
   fs::remove(staging, error);
   fs::create_symlink(target, staging);
