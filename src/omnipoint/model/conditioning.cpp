@@ -55,10 +55,8 @@ ConditionEncoderImpl::ConditionEncoderImpl(int64_t in_channels, int64_t hidden_d
                                            int64_t embed_dim, int64_t patch_size) {
   patchify = register_module(
       "patchify",
-      torch::nn::Conv2d(
-          torch::nn::Conv2dOptions(in_channels, hidden_dim, patch_size).stride(patch_size)));
-  fuse = register_module("fuse",
-                         torch::nn::Conv2d(torch::nn::Conv2dOptions(hidden_dim, embed_dim, 1)));
+      Conv2d(torch::nn::Conv2dOptions(in_channels, hidden_dim, patch_size).stride(patch_size)));
+  fuse = register_module("fuse", Conv2d(torch::nn::Conv2dOptions(hidden_dim, embed_dim, 1)));
   torch::nn::init::zeros_(fuse->weight);
   torch::nn::init::zeros_(fuse->bias);
 }

@@ -19,11 +19,12 @@
 // computing exactly MoGe-2's features.
 #include <ATen/core/Tensor.h>
 #include <torch/nn/module.h>
-#include <torch/nn/modules/conv.h>
 #include <torch/nn/modules/embedding.h>
 #include <torch/nn/pimpl.h>
 
 #include <cstdint>
+
+#include "omnipoint/model/layers.h"
 
 namespace omnipoint::model {
 
@@ -57,8 +58,8 @@ class ConditionEncoderImpl : public torch::nn::Module {
                        int64_t patch_size);
   at::Tensor forward(const at::Tensor& x);
 
-  torch::nn::Conv2d patchify{nullptr};
-  torch::nn::Conv2d fuse{nullptr};
+  Conv2d patchify{nullptr};
+  Conv2d fuse{nullptr};
 };
 TORCH_MODULE(ConditionEncoder);
 

@@ -2,8 +2,6 @@
 
 #include <ATen/ATen.h>
 #include <torch/nn/modules/activation.h>
-#include <torch/nn/modules/conv.h>
-#include <torch/nn/modules/linear.h>
 #include <torch/nn/modules/upsampling.h>
 #include <nlohmann/json.hpp>
 
@@ -11,25 +9,25 @@
 #include <stdexcept>
 
 #include "omnipoint/model/config_tables.h"
+#include "omnipoint/model/layers.h"
 
 namespace omnipoint::model {
 
 namespace {
 
-torch::nn::Conv2d conv1x1(int64_t in, int64_t out) {
-  return torch::nn::Conv2d(torch::nn::Conv2dOptions(in, out, 1));
+Conv2d conv1x1(int64_t in, int64_t out) {
+  return Conv2d(torch::nn::Conv2dOptions(in, out, 1));
 }
 
-torch::nn::Conv2d conv3x3_replicate(int64_t in, int64_t out) {
-  return torch::nn::Conv2d(
-      torch::nn::Conv2dOptions(in, out, 3).padding(1).padding_mode(torch::kReplicate));
+Conv2d conv3x3_replicate(int64_t in, int64_t out) {
+  return Conv2d(torch::nn::Conv2dOptions(in, out, 3).padding(1).padding_mode(torch::kReplicate));
 }
 
 // ×2 up-sampling followed by a 3×3 convolution (MoGe's Resampler).
 torch::nn::Sequential resampler(const std::string& kind, int64_t in, int64_t out) {
   if (kind == "conv_transpose") {
     return torch::nn::Sequential(
-        torch::nn::ConvTranspose2d(torch::nn::ConvTranspose2dOptions(in, out, 2).stride(2)),
+        ConvTranspose2d(torch::nn::ConvTranspose2dOptions(in, out, 2).stride(2)),
         conv3x3_replicate(out, out));
   }
   if (kind == "bilinear") {
@@ -207,14 +205,14 @@ std::vector<at::Tensor> ConvStackImpl::forward(const std::vector<at::Tensor>& in
   for (int64_t l = 0; l < levels; ++l) {
     if (inputs[l].defined()) {
       // A level without an input block adds its input unchanged (MoGe's nn.Identity).
-      auto* input_block = input_blocks[l]->as<torch::nn::Conv2dImpl>();
+      auto* input_block = input_blocks[l]->as<Conv2dImpl>();
       at::Tensor feature = input_block ? input_block->forward(inputs[l]) : inputs[l];
       state = state.defined() ? state + feature : feature;
     }
     if (!state.defined()) throw std::invalid_argument("conv stack: level 0 has no input");
     auto& blocks = *res_blocks->ptr<torch::nn::SequentialImpl>(l);
     if (!blocks.is_empty()) state = blocks.forward(state);
-    auto* output_block = output_blocks[l]->as<torch::nn::Conv2dImpl>();
+    auto* output_block = output_blocks[l]->as<Conv2dImpl>();
     outputs.push_back(output_block ? output_block->forward(state) : state);
     if (l + 1 < levels) state = resamplers->ptr<torch::nn::SequentialImpl>(l)->forward(state);
   }

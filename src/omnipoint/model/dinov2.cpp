@@ -93,10 +93,8 @@ LayerScaleImpl::LayerScaleImpl(int64_t dim, double init_values) {
 
 AttentionImpl::AttentionImpl(int64_t dim, int64_t num_heads, bool qkv_bias, bool proj_bias)
     : num_heads_(num_heads) {
-  qkv = register_module("qkv",
-                        torch::nn::Linear(torch::nn::LinearOptions(dim, 3 * dim).bias(qkv_bias)));
-  proj = register_module("proj",
-                         torch::nn::Linear(torch::nn::LinearOptions(dim, dim).bias(proj_bias)));
+  qkv = register_module("qkv", Linear(torch::nn::LinearOptions(dim, 3 * dim).bias(qkv_bias)));
+  proj = register_module("proj", Linear(torch::nn::LinearOptions(dim, dim).bias(proj_bias)));
 }
 
 at::Tensor AttentionImpl::forward(const at::Tensor& x) {
@@ -132,19 +130,17 @@ FeedForwardImpl::FeedForwardImpl(const DinoV2Config& config) {
   const int64_t dim = config.embed_dim;
   const auto hidden = static_cast<int64_t>(static_cast<double>(dim) * config.mlp_ratio);
   if (config.ffn_layer == "mlp") {
-    fc1 = register_module(
-        "fc1", torch::nn::Linear(torch::nn::LinearOptions(dim, hidden).bias(config.ffn_bias)));
-    fc2 = register_module(
-        "fc2", torch::nn::Linear(torch::nn::LinearOptions(hidden, dim).bias(config.ffn_bias)));
+    fc1 =
+        register_module("fc1", Linear(torch::nn::LinearOptions(dim, hidden).bias(config.ffn_bias)));
+    fc2 =
+        register_module("fc2", Linear(torch::nn::LinearOptions(hidden, dim).bias(config.ffn_bias)));
   } else {
     // DINOv2's SwiGLUFFNFused: hidden = 2/3 of the MLP width, rounded up to a multiple of 8.
     const int64_t swiglu_hidden = (hidden * 2 / 3 + 7) / 8 * 8;
     w12 = register_module(
-        "w12",
-        torch::nn::Linear(torch::nn::LinearOptions(dim, 2 * swiglu_hidden).bias(config.ffn_bias)));
+        "w12", Linear(torch::nn::LinearOptions(dim, 2 * swiglu_hidden).bias(config.ffn_bias)));
     w3 = register_module(
-        "w3",
-        torch::nn::Linear(torch::nn::LinearOptions(swiglu_hidden, dim).bias(config.ffn_bias)));
+        "w3", Linear(torch::nn::LinearOptions(swiglu_hidden, dim).bias(config.ffn_bias)));
   }
 }
 
@@ -176,8 +172,7 @@ at::Tensor BlockImpl::forward(const at::Tensor& x) {
 
 PatchEmbedImpl::PatchEmbedImpl(int64_t patch_size, int64_t embed_dim) {
   proj = register_module(
-      "proj",
-      torch::nn::Conv2d(torch::nn::Conv2dOptions(3, embed_dim, patch_size).stride(patch_size)));
+      "proj", Conv2d(torch::nn::Conv2dOptions(3, embed_dim, patch_size).stride(patch_size)));
 }
 
 DinoV2Impl::DinoV2Impl(const DinoV2Config& config) : config_(config) {

@@ -15,8 +15,6 @@
 #include <ATen/core/Tensor.h>
 #include <torch/nn/module.h>
 #include <torch/nn/modules/container/modulelist.h>
-#include <torch/nn/modules/conv.h>
-#include <torch/nn/modules/linear.h>
 #include <torch/nn/modules/normalization.h>
 #include <torch/nn/pimpl.h>
 #include <nlohmann/json_fwd.hpp>
@@ -24,6 +22,8 @@
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "omnipoint/model/layers.h"
 
 namespace omnipoint::model {
 
@@ -73,8 +73,8 @@ class AttentionImpl : public torch::nn::Module {
  public:
   AttentionImpl(int64_t dim, int64_t num_heads, bool qkv_bias, bool proj_bias);
   at::Tensor forward(const at::Tensor& x);
-  torch::nn::Linear qkv{nullptr};
-  torch::nn::Linear proj{nullptr};
+  Linear qkv{nullptr};
+  Linear proj{nullptr};
 
  private:
   int64_t num_heads_;
@@ -86,8 +86,8 @@ class FeedForwardImpl : public torch::nn::Module {
  public:
   FeedForwardImpl(const DinoV2Config& config);
   at::Tensor forward(const at::Tensor& x);
-  torch::nn::Linear fc1{nullptr}, fc2{nullptr};  // "mlp"
-  torch::nn::Linear w12{nullptr}, w3{nullptr};   // "swiglufused"
+  Linear fc1{nullptr}, fc2{nullptr};  // "mlp"
+  Linear w12{nullptr}, w3{nullptr};   // "swiglufused"
 };
 TORCH_MODULE(FeedForward);
 
@@ -107,7 +107,7 @@ class PatchEmbedImpl : public torch::nn::Module {
  public:
   PatchEmbedImpl(int64_t patch_size, int64_t embed_dim);
   at::Tensor forward(const at::Tensor& image) { return proj(image); }  // (B,C,rows,cols)
-  torch::nn::Conv2d proj{nullptr};
+  Conv2d proj{nullptr};
 };
 TORCH_MODULE(PatchEmbed);
 

@@ -3,8 +3,6 @@
 #include <ATen/ATen.h>
 #include <torch/nn/functional/upsampling.h>
 #include <torch/nn/modules/activation.h>
-#include <torch/nn/modules/conv.h>
-#include <torch/nn/modules/linear.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -12,6 +10,7 @@
 
 #include "omnipoint/geometry/view_plane_uv.h"
 #include "omnipoint/model/config_tables.h"
+#include "omnipoint/model/layers.h"
 #include "omnipoint/model/precision.h"
 #include "omnipoint/model/state_dict.h"
 #include "omnipoint/util/threads.h"
@@ -249,7 +248,7 @@ torch::nn::Sequential scale_mlp(const std::vector<int64_t>& dims) {
   torch::nn::Sequential mlp;
   for (size_t i = 0; i + 1 < dims.size(); ++i) {
     if (i > 0) mlp->push_back(torch::nn::ReLU());
-    mlp->push_back(torch::nn::Linear(dims[i], dims[i + 1]));
+    mlp->push_back(Linear(dims[i], dims[i + 1]));
   }
   return mlp;
 }
@@ -270,8 +269,8 @@ MoGe2EncoderImpl::MoGe2EncoderImpl(const MoGe2EncoderConfig& config) : config_(c
   backbone = register_module("backbone", DinoV2(config_.backbone_config));
   output_projections = register_module("output_projections", torch::nn::ModuleList());
   for (size_t i = 0; i < config_.intermediate_layers.size(); ++i) {
-    output_projections->push_back(torch::nn::Conv2d(
-        torch::nn::Conv2dOptions(config_.backbone_config.embed_dim, config_.dim_out, 1)));
+    output_projections->push_back(
+        Conv2d(torch::nn::Conv2dOptions(config_.backbone_config.embed_dim, config_.dim_out, 1)));
   }
 }
 
@@ -292,7 +291,7 @@ EncoderOutput MoGe2EncoderImpl::project(const std::vector<DinoV2Layer>& layers,
   // token layout and transposing once avoids a copy per layer.
   at::Tensor sum;
   for (size_t i = 0; i < layers.size(); ++i) {
-    auto& conv = *output_projections->ptr<torch::nn::Conv2dImpl>(i);
+    auto& conv = *output_projections->ptr<Conv2dImpl>(i);
     const at::Tensor projected = at::linear(layers[i].patch_tokens, conv.weight.flatten(1),
                                             conv.bias);  // (B, rows·cols, dim_out)
     sum = sum.defined() ? sum + projected : projected;
@@ -366,8 +365,11 @@ MoGe2Model load_moge2(const std::map<std::string, at::Tensor>& tensors,
   const auto config = metadata.find("config");
   if (config == metadata.end())
     throw std::invalid_argument("weights carry no model config (metadata entry 'config')");
-  MoGe2Model model(MoGe2Config::from_json_text(config->second));
-  load_state_dict(*model, tensors, LoadMode::kStrict);
+  MoGe2Model model = [&] {
+    const SkipParameterInit every_parameter_is_loaded;
+    return MoGe2Model(MoGe2Config::from_json_text(config->second));
+  }();
+  load_state_dict(*model, tensors, LoadMode::kStrict, LoadStorage::kShare);
   model->eval();
   return model;
 }

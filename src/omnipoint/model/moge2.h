@@ -150,7 +150,8 @@ class MoGe2ModelImpl : public torch::nn::Module {
 TORCH_MODULE(MoGe2Model);
 
 // A MoGe-2 model from the content of a weights file: the config is the metadata entry
-// "config" (a "format" entry, if present, must be "moge2"); the tensors load strictly.
+// "config" (a "format" entry, if present, must be "moge2"); the tensors load strictly, shared
+// as load_omnipoint_model shares them.
 // std::invalid_argument for a bad or missing config, std::runtime_error (listing the
 // names) for weights that do not fit it.
 MoGe2Model load_moge2(const std::map<std::string, at::Tensor>& tensors,

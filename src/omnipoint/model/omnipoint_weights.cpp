@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "omnipoint/model/layers.h"
 #include "omnipoint/model/state_dict.h"
 
 namespace omnipoint::model {
@@ -151,8 +152,11 @@ InitReport init_from_dinov2(OmniPointModelImpl& model, const TensorMap& dinov2) 
 
 OmniPointModel load_omnipoint_model(const TensorMap& tensors,
                                     const std::map<std::string, std::string>& metadata) {
-  OmniPointModel model(config_from_metadata(metadata));
-  load_state_dict(*model, tensors, LoadMode::kStrict);
+  OmniPointModel model = [&] {
+    const SkipParameterInit every_parameter_is_loaded;
+    return OmniPointModel(config_from_metadata(metadata));
+  }();
+  load_state_dict(*model, tensors, LoadMode::kStrict, LoadStorage::kShare);
   return model;
 }
 

@@ -48,7 +48,9 @@ InitReport init_from_dinov2(OmniPointModelImpl& model,
                             const std::map<std::string, at::Tensor>& dinov2);
 
 // A model built from checkpoint metadata (omnipoint_metadata) and loaded strictly from its
-// tensors; errors as load_state_dict and config_from_metadata.
+// tensors, built without random initialisation and sharing the tensors where their dtype is
+// the model's (LoadStorage::kShare: no copy of a memory-mapped checkpoint); errors as
+// load_state_dict and config_from_metadata.
 OmniPointModel load_omnipoint_model(const std::map<std::string, at::Tensor>& tensors,
                                     const std::map<std::string, std::string>& metadata);
 

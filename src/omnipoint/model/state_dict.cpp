@@ -40,7 +40,8 @@ std::map<std::string, at::Tensor> state_dict(const torch::nn::Module& module) {
 }
 
 LoadReport load_state_dict(torch::nn::Module& module,
-                           const std::map<std::string, at::Tensor>& tensors, LoadMode mode) {
+                           const std::map<std::string, at::Tensor>& tensors, LoadMode mode,
+                           LoadStorage storage) {
   std::map<std::string, at::Tensor> targets;
   for (const auto& item : module.named_parameters(/*recurse=*/true))
     targets[item.key()] = item.value();
@@ -76,7 +77,15 @@ LoadReport load_state_dict(torch::nn::Module& module,
   }
 
   torch::NoGradGuard no_grad;
-  for (const std::string& name : report.loaded) targets.at(name).copy_(tensors.at(name));
+  for (const std::string& name : report.loaded) {
+    at::Tensor& target = targets.at(name);
+    const at::Tensor& source = tensors.at(name);
+    if (storage == LoadStorage::kShare && source.dtype() == target.dtype() &&
+        source.device() == target.device())
+      target.set_data(source);
+    else
+      target.copy_(source);
+  }
   return report;
 }
 
