@@ -439,8 +439,13 @@ void route_predictions(httplib::Server& server, const fs::path& root, const View
     json list = json::array();
     for (const std::string& name : find_folders(root)) {
       const bool rig = is_rig_frame(root / name);
-      const std::optional<int64_t> points = rig ? fused_points(read_rig_frame(root / name, name))
-                                                : recorded_points(read_record(root / name));
+      std::optional<int64_t> points;
+      try {
+        points = rig ? fused_points(read_rig_frame(root / name, name))
+                     : recorded_points(read_record(root / name));
+      } catch (const std::exception&) {
+        points.reset();  // a rig frame broken since the start: listed, its page gets the error
+      }
       list.push_back({{"name", name},
                       {"kind", rig ? "rig" : "prediction"},
                       {"points", points ? json(*points) : json()}});

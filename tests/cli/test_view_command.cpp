@@ -395,6 +395,20 @@ TEST_F(ViewCommand, RigOutputFolderListsEveryFrame) {
   EXPECT_EQ(get(server, "/cloud?name=000001")->get_header_value("X-Omnipoint-Points-Total"), "200");
   EXPECT_EQ(nlohmann::json::parse(get(server, "/api/prediction?name=000001/left")->body)["kind"],
             "prediction");
+
+  // A frame broken while it is served: still listed (no point count), its detail an error.
+  std::ofstream(out / "000001" / "rig.json") << "{";
+  const nlohmann::json relisted = nlohmann::json::parse(get(server, "/api/predictions")->body);
+  EXPECT_EQ(relisted["predictions"].size(), listed["predictions"].size());
+  for (const auto& entry : relisted["predictions"]) {
+    if (entry["name"] == "000001") {
+      EXPECT_TRUE(entry["points"].is_null()) << entry;
+    }
+  }
+  const auto broken = get(server, "/api/prediction?name=000001");
+  ASSERT_TRUE(broken);
+  EXPECT_EQ(broken->status, 500);
+  EXPECT_NE(broken->body.find("000001/rig.json: not JSON"), std::string::npos) << broken->body;
 }
 
 TEST_F(ViewCommand, BadRigFramesAreOneLine) {
