@@ -40,6 +40,13 @@ struct PredictCommandOptions {
   int threads = 0;  // 0: every core
 };
 
+// --view: OUT in the browser, as `omnipoint view OUT` shows it.
+void view_outputs(const std::string& output_dir) {
+  ViewOptions view;
+  view.dir = output_dir;
+  serve_predictions(view);
+}
+
 // --rig: the job's options that apply to a rig, carried over.
 void run_rig_predict(const PredictCommandOptions& options) {
   const predict::PredictJobOptions& job = options.job;
@@ -63,6 +70,7 @@ void run_rig_predict(const PredictCommandOptions& options) {
   if (summary.failed > 0)
     throw std::runtime_error(std::to_string(summary.failed) + " of " +
                              std::to_string(summary.frames) + " frames failed (see above)");
+  if (options.view) view_outputs(job.output_dir);
 }
 
 void run_predict(PredictCommandOptions& options) {
@@ -88,11 +96,7 @@ void run_predict(PredictCommandOptions& options) {
   if (summary.failed > 0)
     throw std::runtime_error(std::to_string(summary.failed) + " of " +
                              std::to_string(summary.images) + " images failed (see above)");
-  if (options.view) {
-    ViewOptions view;
-    view.dir = job.output_dir;
-    serve_predictions(view);
-  }
+  if (options.view) view_outputs(job.output_dir);
 }
 
 // Inputs: the images, their cameras, their sparse depth.
@@ -193,8 +197,8 @@ void add_output_options(CLI::App* command, PredictCommandOptions& options) {
                    "is always written")
       ->capture_default_str();
   command->add_flag("--view", options.view,
-                    "When every image is written, show OUT in the browser as `omnipoint view OUT` "
-                    "does (Ctrl-C stops)");
+                    "When every image (or rig frame) is written, show OUT in the browser as "
+                    "`omnipoint view OUT` does (Ctrl-C stops)");
   command->add_flag("--cached-writes", options.cached_writes,
                     "Write files over 4 MiB through the page cache, not with direct I/O: better "
                     "for a single large prediction on a slow disk (SD card, eMMC, network "
@@ -214,7 +218,7 @@ void add_predict_command(CLI::App& app) {
   add_input_options(command, *options);
   add_network_options(command, *options);
   add_output_options(command, *options);
-  command->get_option("--rig")->excludes("--fit-model")->excludes("--view");
+  command->get_option("--rig")->excludes("--fit-model");
   command->callback([options, command] {
     options->lidar_format_given = command->count("--lidar-format") > 0;
     use_threads(options->threads);

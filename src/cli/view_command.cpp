@@ -1,4 +1,5 @@
-// omnipoint view DIR: the prediction folders under DIR in the browser (cli/view_server.h).
+// omnipoint view DIR: the prediction folders and rig frames under DIR in the browser
+// (cli/view_server.h).
 #include <CLI/CLI.hpp>
 
 #include <memory>
@@ -15,8 +16,12 @@ void add_view_command(CLI::App& app) {
       "view",
       "Show the predictions under a folder (the layout `predict` writes) in a web browser: the "
       "image, its depth, distance and mask pictures, camera.json's summary and the point cloud "
-      "in 3D; serves this machine only unless --host says otherwise");
-  command->add_option("dir", options->dir, "A folder of prediction folders, or one of them")
+      "in 3D; a rig frame of `predict --rig` (its rig.json) as its fused cloud in the body frame "
+      "with every camera placed by its pose; serves this machine only unless --host says "
+      "otherwise");
+  command
+      ->add_option("dir", options->dir,
+                   "A folder of prediction folders and rig frames, or one of them")
       ->required();
   command->add_option("--port", options->port, "TCP port (0: any free one; the URL is printed)")
       ->capture_default_str()

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
@@ -38,6 +39,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using ordered_json = nlohmann::ordered_json;
 
 std::string slurp(const fs::path& path) {
   std::ifstream file(path, std::ios::binary);
@@ -161,7 +163,8 @@ json describe_prediction(const std::string& name, const fs::path& folder) {
     if (entry.is_regular_file() && entry.path().filename().string().front() != '.')
       files.push_back(entry.path().filename().string());
   std::sort(files.begin(), files.end());
-  json out = {{"name", name}, {"files", files}, {"record", read_record(folder)}};
+  json out = {
+      {"name", name}, {"kind", "prediction"}, {"files", files}, {"record", read_record(folder)}};
   out["camera_class"] = nullptr;
   try {
     const camera::Camera camera = io::read_camera((folder / "camera.json").string());
@@ -171,6 +174,122 @@ json describe_prediction(const std::string& name, const fs::path& folder) {
     out["camera_error"] = e.what();  // no camera fitted, or an unreadable camera.json
   }
   return out;
+}
+
+// A rig frame written by `predict --rig` (predict/rig_predict_job.h): rig.json, fused.ply
+// (and fused.glb) in the body frame, and one prediction folder per camera.
+bool is_rig_frame(const fs::path& folder) {
+  return fs::is_regular_file(folder / "rig.json");
+}
+
+// 3 rows of 4 finite numbers (or 4 rows), as rig.json writes a camera's body_from_camera.
+bool is_pose_rows(const ordered_json& rows) {
+  if (!rows.is_array() || (rows.size() != 3 && rows.size() != 4)) return false;
+  for (const ordered_json& row : rows) {
+    if (!row.is_array() || row.size() != 4) return false;
+    for (const ordered_json& value : row)
+      if (!value.is_number() || !std::isfinite(value.get<double>())) return false;
+  }
+  return true;
+}
+
+// FOLDER/rig.json (`shown`: FOLDER as the user named it), checked for what the page draws: its
+// "cameras" map each camera's name to its body_from_camera, scale and scale_source; and the
+// frame's cloud, fused.ply or fused.glb, must be there. A problem -> std::invalid_argument naming
+// the file and the field.
+ordered_json read_rig_frame(const fs::path& folder, const std::string& shown) {
+  const std::string file = shown + "/rig.json";
+  const auto bad = [&file](const std::string& problem) {
+    return std::invalid_argument("view: " + file + ": " + problem);
+  };
+  std::ifstream in(folder / "rig.json");
+  if (!in) throw std::runtime_error("view: " + file + ": cannot be read");
+  ordered_json report;
+  try {
+    report = ordered_json::parse(in);
+  } catch (const ordered_json::parse_error& e) {
+    throw bad(std::string("not JSON (") + e.what() + ")");
+  }
+  if (!report.is_object() || !report.contains("cameras") || !report["cameras"].is_object() ||
+      report["cameras"].empty())
+    throw bad(
+        "cameras: expected an object of the frame's cameras by name, as predict --rig "
+        "writes");
+  for (const auto& [name, camera] : report["cameras"].items()) {
+    const std::string field = "cameras." + name;
+    if (!camera.is_object()) throw bad(field + ": expected an object");
+    if (!camera.contains("body_from_camera") || !is_pose_rows(camera["body_from_camera"]))
+      throw bad(field + ".body_from_camera: expected 3 rows of 4 numbers");
+    if (!camera.contains("scale") || !camera["scale"].is_number())
+      throw bad(field + ".scale: expected a number");
+    if (!camera.contains("scale_source") || !camera["scale_source"].is_string())
+      throw bad(field + ".scale_source: expected a string");
+  }
+  if (!fs::is_regular_file(folder / "fused.ply") && !fs::is_regular_file(folder / "fused.glb"))
+    throw std::invalid_argument("view: " + shown +
+                                ": no fused.ply (the frame's cloud that predict --rig writes)");
+  return report;
+}
+
+std::optional<int64_t> fused_points(const ordered_json& report) {
+  if (report.contains("fused_points") && report["fused_points"].is_number_integer())
+    return report["fused_points"].get<int64_t>();
+  return std::nullopt;
+}
+
+// The body frame's up direction: the mean of the cameras' up directions (-y of a camera frame,
+// whose y points down), as a rig's cameras are mounted about level; the first camera's where
+// they cancel out.
+ordered_json body_up(const ordered_json& cameras) {
+  double up[3] = {0, 0, 0};
+  const auto add = [&up](const ordered_json& rows) {
+    for (int i = 0; i < 3; ++i) up[i] -= rows[i][1].get<double>();
+  };
+  for (const auto& camera : cameras) add(camera["body_from_camera"]);
+  if (std::hypot(up[0], up[1], up[2]) < 1e-6) {
+    up[0] = up[1] = up[2] = 0;
+    add(cameras.front()["body_from_camera"]);
+  }
+  const double norm = std::hypot(up[0], up[1], up[2]);
+  return {up[0] / norm, up[1] / norm, up[2] / norm};
+}
+
+// A rig frame for the page: rig.json as it is, the body frame's up, and each camera as rig.json
+// reports it with its name, its folder (by name below the served folder), its class and the
+// rays of its frustum (describe_prediction), from its folder's camera.json.
+ordered_json describe_rig_frame(const fs::path& root, const std::string& name,
+                                const fs::path& folder) {
+  const ordered_json report = read_rig_frame(folder, name);
+  ordered_json cameras = ordered_json::array();
+  for (const auto& [camera_name, entry] : report["cameras"].items()) {
+    ordered_json camera = {{"name", camera_name}};
+    camera.update(entry);
+    const std::string camera_folder = name == "." ? camera_name : name + "/" + camera_name;
+    const Resolved resolved = resolve_inside(root, camera_folder, fs::file_type::directory);
+    camera["folder"] = resolved.status == 200 ? ordered_json(camera_folder) : ordered_json();
+    camera["has_image"] =
+        resolved.status == 200 && fs::is_regular_file(resolved.path / "image.png");
+    camera["camera_class"] = nullptr;
+    camera["frustum_rays"] = nullptr;
+    try {
+      if (resolved.status != 200) throw std::runtime_error("no folder " + camera_folder);
+      const camera::Camera model = io::read_camera((resolved.path / "camera.json").string());
+      camera["camera_class"] = class_name(camera::camera_class(model));
+      camera["frustum_rays"] = ordered_json(frustum_rays(model));
+    } catch (const std::exception& e) {
+      camera["camera_error"] = e.what();  // the page draws its centre and axes
+    }
+    cameras.push_back(camera);
+  }
+  ordered_json files = ordered_json::array();
+  for (const std::string file : {"fused.ply", "fused.glb", "rig.json"})
+    if (fs::is_regular_file(folder / file)) files.push_back(file);
+  return {{"name", name},
+          {"kind", "rig"},
+          {"files", files},
+          {"record", report},
+          {"up", body_up(report["cameras"])},
+          {"cameras", cameras}};
 }
 
 // A 16-bit map (depth.png, distance.png: a browser shows only their high byte) as an 8-bit PNG
@@ -196,15 +315,14 @@ struct Cloud {
   int64_t shown = 0;
 };
 
-// points.glb when it holds at most `max_points` (or there is no points.ply to take fewer from),
-// else every (total / max_points)-th point of points.ply, evenly spread over the image rows.
-// Both files are resolved inside `root` like any other.
-std::optional<Cloud> load_cloud(const fs::path& root, const std::string& name, int64_t max_points) {
-  const Resolved folder = resolve_inside(root, name, fs::file_type::directory);
-  if (folder.status != 200) return std::nullopt;
-  const std::optional<int64_t> recorded = recorded_points(read_record(folder.path));
-  const Resolved glb = resolve_inside(root, name + "/points.glb", fs::file_type::regular);
-  const Resolved ply = resolve_inside(root, name + "/points.ply", fs::file_type::regular);
+// STEM.glb when it holds at most `max_points` points by `recorded` (or there is no STEM.ply to
+// take fewer from), else every (total / max_points)-th point of STEM.ply, evenly spread over
+// the image rows. Both files are resolved inside `root` like any other.
+std::optional<Cloud> load_cloud(const fs::path& root, const std::string& name,
+                                const std::string& stem, std::optional<int64_t> recorded,
+                                int64_t max_points) {
+  const Resolved glb = resolve_inside(root, name + "/" + stem + ".glb", fs::file_type::regular);
+  const Resolved ply = resolve_inside(root, name + "/" + stem + ".ply", fs::file_type::regular);
   if (glb.status == 200 && (ply.status != 200 || (recorded && *recorded <= max_points)))
     return Cloud{slurp(glb.path), recorded, recorded.value_or(-1)};
   if (ply.status != 200) return std::nullopt;
@@ -217,11 +335,16 @@ std::optional<Cloud> load_cloud(const fs::path& root, const std::string& name, i
                total, shown};
 }
 
-// Ready-made prediction folders below `root`: staging folders (predict's unfinished ones,
-// io::StagedFolder), other hidden ones and symlinked ones are not entered.
-std::vector<std::string> find_predictions(const fs::path& root) {
+// Whether `folder` is shown: a prediction folder (camera.json) or a rig frame (rig.json).
+bool is_shown(const fs::path& folder) {
+  return fs::is_regular_file(folder / "camera.json") || is_rig_frame(folder);
+}
+
+// Ready-made prediction folders and rig frames below `root`: staging folders (predict's
+// unfinished ones, io::StagedFolder), other hidden ones and symlinked ones are not entered.
+std::vector<std::string> find_folders(const fs::path& root) {
   std::vector<std::string> names;
-  if (fs::is_regular_file(root / "camera.json")) names.emplace_back(".");
+  if (is_shown(root)) names.emplace_back(".");
   for (auto entry =
            fs::recursive_directory_iterator(root, fs::directory_options::skip_permission_denied);
        entry != fs::recursive_directory_iterator(); ++entry) {
@@ -230,7 +353,7 @@ std::vector<std::string> find_predictions(const fs::path& root) {
       entry.disable_recursion_pending();
       continue;
     }
-    if (fs::is_regular_file(entry->path() / "camera.json"))
+    if (is_shown(entry->path()))
       names.push_back(fs::relative(entry->path(), root).generic_string());
   }
   std::sort(names.begin(), names.end());
@@ -314,9 +437,18 @@ void route_predictions(httplib::Server& server, const fs::path& root, const View
   server.Get("/api/predictions", [root, options](const httplib::Request&,
                                                  httplib::Response& response) {
     json list = json::array();
-    for (const std::string& name : find_predictions(root)) {
-      const std::optional<int64_t> points = recorded_points(read_record(root / name));
-      list.push_back({{"name", name}, {"points", points ? json(*points) : json()}});
+    for (const std::string& name : find_folders(root)) {
+      const bool rig = is_rig_frame(root / name);
+      std::optional<int64_t> points;
+      try {
+        points = rig ? fused_points(read_rig_frame(root / name, name))
+                     : recorded_points(read_record(root / name));
+      } catch (const std::exception&) {
+        points.reset();  // a rig frame broken since the start: listed, its page gets the error
+      }
+      list.push_back({{"name", name},
+                      {"kind", rig ? "rig" : "prediction"},
+                      {"points", points ? json(*points) : json()}});
     }
     const json out = {
         {"root", options.dir.string()}, {"max_points", options.max_points}, {"predictions", list}};
@@ -333,18 +465,27 @@ void route_predictions(httplib::Server& server, const fs::path& root, const View
     if (folder.status != 200) send_status(response, folder.status);
     return folder;
   };
-  server.Get("/api/prediction", [named_folder](const httplib::Request& request,
-                                               httplib::Response& response) {
-    const Resolved folder = named_folder(request, response);
-    if (folder.status == 200)
-      response.set_content(describe_prediction(request.get_param_value("name"), folder.path).dump(),
-                           "application/json");
-  });
+  server.Get("/api/prediction",
+             [root, named_folder](const httplib::Request& request, httplib::Response& response) {
+               const Resolved folder = named_folder(request, response);
+               if (folder.status != 200) return;
+               const std::string name = request.get_param_value("name");
+               response.set_content(is_rig_frame(folder.path)
+                                        ? describe_rig_frame(root, name, folder.path).dump()
+                                        : describe_prediction(name, folder.path).dump(),
+                                    "application/json");
+             });
   server.Get("/cloud", [root, options, named_folder](const httplib::Request& request,
                                                      httplib::Response& response) {
-    if (named_folder(request, response).status != 200) return;
+    const Resolved folder = named_folder(request, response);
+    if (folder.status != 200) return;
+    const std::string name = request.get_param_value("name");
+    const bool rig = is_rig_frame(folder.path);
     const std::optional<Cloud> cloud =
-        load_cloud(root, request.get_param_value("name"), options.max_points);
+        rig ? load_cloud(root, name, "fused", fused_points(read_rig_frame(folder.path, name)),
+                         options.max_points)
+            : load_cloud(root, name, "points", recorded_points(read_record(folder.path)),
+                         options.max_points);
     if (!cloud) return send_status(response, 404);
     if (cloud->total)
       response.set_header("X-Omnipoint-Points-Total", std::to_string(*cloud->total));
@@ -385,11 +526,21 @@ void serve_predictions(const ViewOptions& options) {
   if (!fs::is_directory(options.dir))
     throw std::invalid_argument("view: " + options.dir.string() + ": no such folder");
   const fs::path root = fs::canonical(options.dir);
-  const std::size_t count = find_predictions(root).size();
-  if (count == 0)
+  // Rig frames are checked now: a bad one is one error line before serving anything.
+  std::size_t predictions = 0, rig_frames = 0;
+  for (const std::string& name : find_folders(root)) {
+    if (!is_rig_frame(root / name)) {
+      ++predictions;
+      continue;
+    }
+    read_rig_frame(root / name, name == "." ? options.dir.string() : (options.dir / name).string());
+    ++rig_frames;
+  }
+  if (predictions + rig_frames == 0)
     throw std::invalid_argument("view: " + options.dir.string() +
                                 " holds no prediction folder (one with the camera.json that "
-                                "`omnipoint predict` writes)");
+                                "`omnipoint predict` writes) and no rig frame (the rig.json of "
+                                "`predict --rig`)");
   const std::string rebuild = ": reinstall omnipoint, or rebuild it (npm ci installs three.js)";
   const fs::path page = fs::canonical(
       find_bundled(OMNIPOINT_INSTALLED_VIEW, OMNIPOINT_SOURCE_VIEW, "the viewer's page", rebuild));
@@ -408,8 +559,10 @@ void serve_predictions(const ViewOptions& options) {
   const std::string host =
       options.host.find(':') == std::string::npos ? options.host : "[" + options.host + "]";
   const std::string url = "http://" + host + ":" + std::to_string(port) + "/";
-  std::cout << "omnipoint view: serving " << count << " prediction(s) of " << options.dir.string()
-            << " at " << url << " (Ctrl-C stops)" << std::endl;
+  std::cout << "omnipoint view: serving "
+            << (rig_frames > 0 ? std::to_string(rig_frames) + " rig frame(s) and " : "")
+            << predictions << " prediction(s) of " << options.dir.string() << " at " << url
+            << " (Ctrl-C stops)" << std::endl;
   if (options.open_browser) open_in_browser(url);
   if (!server.listen_after_bind())
     throw std::runtime_error("view: the server on " + url + " stopped on an error");

@@ -1,7 +1,9 @@
 // End to end: `omnipoint view` on a prediction of the bundled pinhole example made by the
 // bundled model: the page, three.js, the API, the cloud (whole and subsampled) and the files
 // over HTTP; the paths that leave the folder refused; bad folders and a taken port as one line;
-// and, where Chromium is installed, the page rendering the cloud in a real browser.
+// a rig frame (the layout `predict --rig` writes) as one fused cloud with its cameras placed by
+// rig.json's poses, and bad rig frames as one line; and, where Chromium is installed, the page
+// rendering the cloud and the rig frame in a real browser.
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -15,7 +17,9 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
+#include "omnipoint/camera/camera.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/io/ply.h"
 #include "support/cli_run.h"
@@ -255,6 +259,192 @@ TEST_F(ViewCommand, WarnsWhenListeningBeyondThisMachine) {
   EXPECT_EQ(get(server, "/")->status, 200);
 }
 
+// A rig frame as `predict --rig` writes it (predict/rig_predict_job.h), in a vehicle's body frame
+// (x forward, y left, z up): rig.json, fused.ply of `points` points, and a prediction folder per
+// camera: "front" and "left" copies of the pinhole prediction, "pano" an equirectangular
+// camera.json alone (too wide for a frustum).
+nlohmann::json write_rig_frame(const fs::path& frame, const fs::path& pinhole, int64_t points) {
+  fs::create_directories(frame);
+  for (const std::string camera : {"front", "left"})
+    fs::copy(pinhole, frame / camera, fs::copy_options::recursive);
+  fs::create_directories(frame / "pano");
+  std::ofstream(frame / "pano" / "camera.json")
+      << omnipoint::camera::make_camera("EQUIRECTANGULAR", 64, 32, {}).to_json();
+  const double c = std::cos(0.7), s = std::sin(0.7);
+  const auto camera = [](const std::vector<std::vector<double>>& pose, double scale,
+                         const std::string& source) {
+    return nlohmann::json{{"scale", scale},
+                          {"scale_source", source},
+                          {"disagreement", scale / 1.05 - 1},
+                          {"applied_scale", source == "lidar" ? scale : 1.05},
+                          {"sparse_samples", source == "lidar" ? 812 : 0},
+                          {"image", "frames/000000/camera.png"},
+                          {"body_from_camera", pose}};
+  };
+  const nlohmann::json report = {
+      {"frame", "vehicle"},
+      {"rig_scale", 1.05},
+      {"overlap_residual", nullptr},
+      {"scale_rule", "median of the LiDAR-aligned cameras' scales"},
+      {"lidar", "frames/000000/lidar.bin"},
+      {"missing_cameras", nlohmann::json::array()},
+      {"fused_points", points},
+      {"cameras",
+       {{"front",
+         camera({{0, 0, 1, 1.5}, {-1, 0, 0, 0.0123456789}, {0, -1, 0, 1.2}}, 1.05, "lidar")},
+        {"left", camera({{1, 0, 0, 0.5}, {0, 0, 1, 0.9}, {0, -1, 0, 1.0}}, 0.93, "network")},
+        {"pano", camera({{s, 0, c, 0.25}, {-c, 0, s, -0.1}, {0, -1, 0, 1.9}}, 1.2, "network")}}}};
+  std::ofstream(frame / "rig.json") << report.dump(2);
+  const at::Tensor cloud = at::rand({points, 3}, at::kFloat) * 20 - 10;
+  const at::Tensor colours = at::randint(0, 256, {points, 3}, at::kByte);
+  omnipoint::io::write_ply((frame / "fused.ply").string(), cloud, colours);
+  return report;
+}
+
+TEST_F(ViewCommand, RigFrameIsOneCloudWithEveryCameraPlaced) {
+  const fs::path frame = scratch("rig_one") / "000000";
+  const int64_t points = 600;
+  const nlohmann::json report = write_rig_frame(frame, folder(), points);
+  const ViewServer server(frame.string(), scratch("rig_one_view"));
+
+  // The frame itself (".") and each camera's own prediction folder.
+  const nlohmann::json listed = nlohmann::json::parse(get(server, "/api/predictions")->body);
+  ASSERT_EQ(listed["predictions"].size(), 4u) << listed;
+  EXPECT_EQ(listed["predictions"][0],
+            (nlohmann::json{{"name", "."}, {"kind", "rig"}, {"points", points}}));
+  EXPECT_EQ(listed["predictions"][1]["name"], "front");
+  EXPECT_EQ(listed["predictions"][1]["kind"], "prediction");
+  EXPECT_EQ(listed["predictions"][3]["name"], "pano");
+
+  const auto detail = get(server, "/api/prediction?name=.");
+  ASSERT_TRUE(detail);
+  ASSERT_EQ(detail->status, 200) << detail->body;
+  const nlohmann::json described = nlohmann::json::parse(detail->body);
+  EXPECT_EQ(described["kind"], "rig");
+  EXPECT_EQ(described["record"], report);
+  // The body frame's up: every camera's -y is the body's +z.
+  ASSERT_EQ(described["up"].size(), 3u);
+  EXPECT_NEAR(described["up"][0].get<double>(), 0, 1e-12);
+  EXPECT_NEAR(described["up"][1].get<double>(), 0, 1e-12);
+  EXPECT_NEAR(described["up"][2].get<double>(), 1, 1e-12);
+  const auto& cameras = described["cameras"];
+  ASSERT_EQ(cameras.size(), 3u) << cameras;
+  const std::vector<std::string> names = {"front", "left", "pano"};
+  for (size_t i = 0; i < names.size(); ++i) {
+    SCOPED_TRACE(names[i]);
+    const auto& camera = cameras[i];
+    const auto& reported = report["cameras"][names[i]];
+    EXPECT_EQ(camera["name"], names[i]);
+    EXPECT_EQ(camera["folder"], names[i]);
+    EXPECT_EQ(camera["body_from_camera"], reported["body_from_camera"]);  // exact
+    EXPECT_EQ(camera["scale"], reported["scale"]);
+    EXPECT_EQ(camera["scale_source"], reported["scale_source"]);
+    EXPECT_EQ(camera["disagreement"], reported["disagreement"]);
+    EXPECT_FALSE(camera.contains("camera_error")) << camera["camera_error"];
+  }
+  EXPECT_EQ(cameras[0]["camera_class"], "perspective");
+  EXPECT_EQ(cameras[0]["frustum_rays"].size(), 32u);
+  EXPECT_EQ(cameras[0]["has_image"], true);
+  EXPECT_EQ(cameras[2]["camera_class"], "panorama");
+  EXPECT_TRUE(cameras[2]["frustum_rays"].is_null());  // centre and axes instead
+  EXPECT_EQ(cameras[2]["has_image"], false);
+
+  // One cloud: fused.ply's points in the GLB's frame (x, -y, -z).
+  const auto cloud = get(server, "/cloud?name=.");
+  ASSERT_TRUE(cloud);
+  ASSERT_EQ(cloud->status, 200);
+  EXPECT_EQ(cloud->get_header_value("X-Omnipoint-Points-Total"), std::to_string(points));
+  EXPECT_EQ(cloud->get_header_value("X-Omnipoint-Points-Shown"), std::to_string(points));
+  const omnipoint::test::GlbChunks glb = omnipoint::test::parse_glb(cloud->body);
+  ASSERT_EQ(glb.gltf["accessors"][0]["count"].get<int64_t>(), points);
+  const at::Tensor ply = omnipoint::io::read_ply((frame / "fused.ply").string()).points;
+  for (const int64_t i : {int64_t{0}, points - 1}) {
+    float position[3];
+    std::memcpy(position, glb.bin.data() + 12 * i, 12);
+    EXPECT_FLOAT_EQ(position[0], ply[i][0].item<float>()) << i;
+    EXPECT_FLOAT_EQ(position[1], -ply[i][1].item<float>()) << i;
+    EXPECT_FLOAT_EQ(position[2], -ply[i][2].item<float>()) << i;
+  }
+  // A camera's own folder is still a prediction of its own.
+  EXPECT_EQ(nlohmann::json::parse(get(server, "/api/prediction?name=front")->body)["kind"],
+            "prediction");
+
+  const ViewServer budget(frame.string() + " --max-points 100", scratch("rig_one_budget"));
+  const auto fewer = get(budget, "/cloud?name=.");
+  ASSERT_TRUE(fewer);
+  EXPECT_EQ(fewer->get_header_value("X-Omnipoint-Points-Total"), std::to_string(points));
+  EXPECT_EQ(fewer->get_header_value("X-Omnipoint-Points-Shown"), "100");
+}
+
+TEST_F(ViewCommand, RigOutputFolderListsEveryFrame) {
+  const fs::path out = scratch("rig_frames");
+  write_rig_frame(out / "000000", folder(), 300);
+  write_rig_frame(out / "000001", folder(), 200);
+  const ViewServer server(out.string(), scratch("rig_frames_view"));
+  EXPECT_NE(omnipoint::test::slurp(scratch("rig_frames_view") / "view_stdout")
+                .find("serving 2 rig frame(s) and 6 prediction(s) of "),
+            std::string::npos);
+  const nlohmann::json listed = nlohmann::json::parse(get(server, "/api/predictions")->body);
+  std::vector<std::string> frames;
+  for (const auto& entry : listed["predictions"])
+    if (entry["kind"] == "rig") frames.push_back(entry["name"]);
+  EXPECT_EQ(frames, (std::vector<std::string>{"000000", "000001"})) << listed;
+  const nlohmann::json described =
+      nlohmann::json::parse(get(server, "/api/prediction?name=000001")->body);
+  EXPECT_EQ(described["cameras"][1]["folder"], "000001/left");
+  EXPECT_EQ(get(server, "/cloud?name=000001")->get_header_value("X-Omnipoint-Points-Total"), "200");
+  EXPECT_EQ(nlohmann::json::parse(get(server, "/api/prediction?name=000001/left")->body)["kind"],
+            "prediction");
+
+  // A frame broken while it is served: still listed (no point count), its detail an error.
+  std::ofstream(out / "000001" / "rig.json") << "{";
+  const nlohmann::json relisted = nlohmann::json::parse(get(server, "/api/predictions")->body);
+  EXPECT_EQ(relisted["predictions"].size(), listed["predictions"].size());
+  for (const auto& entry : relisted["predictions"]) {
+    if (entry["name"] == "000001") {
+      EXPECT_TRUE(entry["points"].is_null()) << entry;
+    }
+  }
+  const auto broken = get(server, "/api/prediction?name=000001");
+  ASSERT_TRUE(broken);
+  EXPECT_EQ(broken->status, 500);
+  EXPECT_NE(broken->body.find("000001/rig.json: not JSON"), std::string::npos) << broken->body;
+}
+
+TEST_F(ViewCommand, BadRigFramesAreOneLine) {
+  const auto broken = [&](const std::string& name) {
+    const fs::path frame = scratch("rig_bad") / name;
+    write_rig_frame(frame, folder(), 50);
+    return frame;
+  };
+  const fs::path not_json = broken("not_json");
+  std::ofstream(not_json / "rig.json") << "{\"cameras\": {";
+  expect_refusal(run_omnipoint("view " + not_json.string(), scratch("bad")), "rig.json: not JSON");
+
+  const fs::path no_cloud = broken("no_cloud");
+  fs::remove(no_cloud / "fused.ply");
+  expect_refusal(run_omnipoint("view " + no_cloud.string(), scratch("bad")), "no fused.ply");
+
+  const fs::path bad_pose = broken("bad_pose");
+  nlohmann::json report = nlohmann::json::parse(omnipoint::test::slurp(bad_pose / "rig.json"));
+  report["cameras"]["left"]["body_from_camera"] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  std::ofstream(bad_pose / "rig.json") << report.dump();
+  expect_refusal(run_omnipoint("view " + bad_pose.string(), scratch("bad")),
+                 "rig.json: cameras.left.body_from_camera: expected 3 rows of 4 numbers");
+
+  const fs::path no_cameras = broken("no_cameras");
+  std::ofstream(no_cameras / "rig.json") << R"({"frame": "body", "cameras": {}})";
+  expect_refusal(run_omnipoint("view " + no_cameras.string(), scratch("bad")), "cameras:");
+
+  // One bad frame among good ones refuses the whole folder, naming it.
+  const fs::path out = scratch("rig_bad_among");
+  write_rig_frame(out / "000000", folder(), 50);
+  write_rig_frame(out / "000001", folder(), 50);
+  fs::remove(out / "000001" / "fused.ply");
+  expect_refusal(run_omnipoint("view " + out.string(), scratch("bad")),
+                 (out / "000001").string() + ": no fused.ply");
+}
+
 // Headless Chromium with WebGL on SwiftShader (software); DIR/pinhole's page is captured once
 // it is done loading (virtual time runs ahead while the page waits on nothing).
 std::string chromium() {
@@ -319,6 +509,32 @@ TEST_F(ViewCommand, ChromiumRendersTheCloud) {
   EXPECT_GT(drawn, 0.2) << "the cloud is missing from the screenshot";
   EXPECT_LT(undrawn, 0.01) << "a folder without a cloud shows something";
   fs::remove_all(blank);
+}
+
+// The rig frame's page: the fused cloud and its three cameras (the page's status line says so
+// once the first frame is drawn; a script error would leave "error: ..." there instead).
+TEST_F(ViewCommand, ChromiumRendersARigFrame) {
+  if (chromium().empty())
+    GTEST_SKIP() << "Chromium is not installed (/usr/bin/chromium; scripts/install_deps.sh "
+                    "--tests installs it)";
+  const fs::path out = scratch("rig_browser");
+  write_rig_frame(out / "000000", folder(), 2000);
+  const ViewServer server(out.string(), scratch("rig_browser_view"));
+  const fs::path browser = scratch("rig_chromium");
+  fs::create_directories(browser);
+  const std::string profile = " --user-data-dir=" + (browser / "profile").string();
+  const CliRun dom = omnipoint::test::run_command(
+      chromium_command("--dump-dom" + profile, server.url() + "#000000"), browser);
+  EXPECT_NE(dom.out.find(R"(data-rendered="000000")"), std::string::npos) << dom.out << dom.err;
+  EXPECT_NE(dom.out.find("showing 2,000 points and 3 cameras in the body frame (vehicle)<"),
+            std::string::npos)
+      << dom.out;
+  // The cameras' images link to their own predictions; the summary lists every camera's scale.
+  EXPECT_NE(dom.out.find(R"(href="#000000%2Ffront")"), std::string::npos) << dom.out;
+  EXPECT_NE(dom.out.find("scale 0.9300 (network), disagreement -11.43 %, shown at the rig "
+                         "scale 1.0500"),
+            std::string::npos)
+      << dom.out;
 }
 
 }  // namespace

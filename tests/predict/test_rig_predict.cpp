@@ -560,5 +560,28 @@ TEST(RigPredictCli, WritesTheFrameAndItsReport) {
   EXPECT_FALSE(fs::exists(dir / "other"));
 }
 
+// A sweep the rig file places 50 m off misses the pinhole: the warning names the rig file's
+// poses, not predict's --lidar-to-camera (which a rig does not take).
+TEST(RigPredictCli, AMisplacedSweepNamesTheRigsPoses) {
+  const fs::path dir = test::fresh_process_dir("omnipoint_rig_cli_misplaced");
+  write_frame(dir / "frames" / "0001", {}, true);
+  json rig = json::parse(synthetic_rig().rig_text());
+  rig["lidar"]["body_from_lidar"][2][3] = -50.0;  // behind the front camera
+  std::ofstream(dir / "rig.json") << rig.dump();
+  const test::CliRun run =
+      test::run_omnipoint("predict --rig " + (dir / "rig.json").string() + " " +
+                              (dir / "frames").string() + " --out " + (dir / "out").string() +
+                              " --model '" + tiny_model_path() + "' --num-tokens 12 --outputs ply",
+                          dir);
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.err.find("camera front: only 0 of the point cloud's"), std::string::npos)
+      << run.err;
+  EXPECT_NE(run.err.find("check the rig file's lidar.body_from_lidar and this camera's "
+                         "body_from_camera"),
+            std::string::npos)
+      << run.err;
+  EXPECT_EQ(run.err.find("--lidar-to-camera"), std::string::npos) << run.err;
+}
+
 }  // namespace
 }  // namespace omnipoint::predict

@@ -1,5 +1,6 @@
 // omnipoint view: the folder list, one prediction's pictures and summary, and its point cloud
-// in 3D. Rendering is on demand (after a change), not in a loop. Once a cloud's first frame is
+// in 3D; for a rig frame (predict --rig), its fused cloud in the body frame with every camera
+// placed by its body_from_camera and labelled with its name and scale. Rendering is on demand (after a change), not in a loop. Once a cloud's first frame is
 // drawn, <body data-rendered="NAME"> and the title say so (the browser test waits for it).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -68,25 +69,70 @@ function distanceColours(positions, sorted) {
 
 // The camera's frustum through the image border, `depth` deep; for lenses too wide for one
 // (the server sends no rays then), its centre and axes (x red, y green, z blue, camera frame).
-function cameraDrawing(detail, depth) {
+// `place` takes a point of the camera's frame into the scene.
+function cameraDrawing(rays, depth, place = toScene) {
   const group = new THREE.Group();
-  const rays = detail.frustum_rays;
+  const origin = place([0, 0, 0]);
   if (rays) {
-    const border = rays.map((ray) => toScene(ray).multiplyScalar(depth / ray[2]));
-    const origin = new THREE.Vector3();
+    const border = rays.map((ray) => place(ray.map((value) => (value * depth) / ray[2])));
     const corners = [0, 1, 2, 3].map((side) => border[Math.floor((side * border.length) / 4)]);
     group.add(lines([
       ...corners.map((corner) => [origin, corner]),
       ...border.map((point, i) => [point, border[(i + 1) % border.length]]),
     ], 0xffd166));
   } else {
-    const axis = (x, y, z) => [new THREE.Vector3(), toScene([x, y, z]).multiplyScalar(depth)];
+    const axis = (x, y, z) => [origin, place([x * depth, y * depth, z * depth])];
     group.add(lines([axis(1, 0, 0)], 0xff5555), lines([axis(0, 1, 0)], 0x55ff55),
               lines([axis(0, 0, 1)], 0x5599ff));
-    group.add(new THREE.Mesh(new THREE.SphereGeometry(depth * 0.04),
-                             new THREE.MeshBasicMaterial({ color: 0xffd166 })));
+    const centre = new THREE.Mesh(new THREE.SphereGeometry(depth * 0.04),
+                                  new THREE.MeshBasicMaterial({ color: 0xffd166 }));
+    centre.position.copy(origin);
+    group.add(centre);
   }
   return group;
+}
+
+// A text label at `position` that keeps its size on screen.
+function label(text, position) {
+  const canvas = document.createElement('canvas');
+  const context = canvas.getContext('2d');
+  const font = '28px sans-serif';
+  context.font = font;
+  canvas.width = Math.ceil(context.measureText(text).width) + 16;
+  canvas.height = 40;
+  context.font = font;
+  context.fillStyle = 'rgba(29, 32, 38, 0.75)';
+  context.fillRect(0, 0, canvas.width, canvas.height);
+  context.fillStyle = '#ffd166';
+  context.textBaseline = 'middle';
+  context.fillText(text, 8, canvas.height / 2);
+  const texture = new THREE.CanvasTexture(canvas);
+  const sprite = new THREE.Sprite(new THREE.SpriteMaterial({ map: texture, sizeAttenuation: false, depthTest: false }));
+  sprite.scale.set((0.035 * canvas.width) / canvas.height, 0.035, 1);
+  sprite.center.set(0.5, 0);
+  sprite.position.copy(position);
+  return sprite;
+}
+
+// A rig frame's cameras: the body frame's points come in the GLB's frame (toScene of the body
+// frame's coordinates), turned so that the body's up (the server's estimate) is the scene's.
+function rigDrawing(detail, geometry, depth) {
+  const turn = new THREE.Quaternion().setFromUnitVectors(toScene(detail.up).normalize(), new THREE.Vector3(0, 1, 0));
+  geometry.applyQuaternion(turn);
+  const group = new THREE.Group();
+  const places = detail.cameras.map((camera) => {
+    const rows = camera.body_from_camera;
+    const body = (p) => [0, 1, 2].map((i) => rows[i][0] * p[0] + rows[i][1] * p[1] + rows[i][2] * p[2] + rows[i][3]);
+    const place = (p) => toScene(body(p)).applyQuaternion(turn);
+    group.add(cameraDrawing(camera.frustum_rays, depth, place));
+    group.add(label(`${camera.name} ×${camera.scale.toPrecision(4)} (${camera.scale_source})`, place([0, -0.2 * depth, 0])));
+    return place;
+  });
+  // Home: behind the first camera, level, looking at the body's origin from above.
+  const forward = places[0]([0, 0, 1]).sub(places[0]([0, 0, 0])).setY(0);
+  if (forward.length() < 1e-6) forward.set(0, 0, -1);
+  forward.normalize();
+  return { group, forward };
 }
 
 // A floor grid under the cloud in round metric cells (1, 2 or 5 times a power of ten).
@@ -130,11 +176,14 @@ for (const id of ['point-size', 'colour', 'show-camera', 'show-grid']) {
 }
 
 // Seen from behind and above the camera: a perspective camera's view, a wide lens's or
-// panorama's from further up, looking at its centre.
+// panorama's from further up, looking at its centre; a rig from behind its first camera.
 function resetView() {
   if (!shown) return;
   const median = shown.median;
-  if (shown.wide) {
+  if (shown.rigForward) {
+    view.position.copy(shown.rigForward).multiplyScalar(-1.5 * median).setY(1.2 * median);
+    controls.target.set(0, 0, 0);
+  } else if (shown.wide) {
     const back = shown.panorama ? 1.2 : 2.4, up = shown.panorama ? 1.6 : 2;
     view.position.set(0, up * median, back * median);
     controls.target.set(0, 0, 0);
@@ -174,23 +223,26 @@ async function showCloud(name, detail) {
   const geometry = points.geometry, positions = geometry.getAttribute('position');
   const sorted = sortedDistances(positions);
   const median = quantile(sorted, 0.5) || 1;
+  const rig = detail.kind === 'rig' ? rigDrawing(detail, geometry, 0.15 * median) : null;
   geometry.computeBoundingBox();
   const { grid, cell } = metricGrid(geometry.boundingBox);
   shown = {
     points: new THREE.Points(geometry, material),
     imageColours: geometry.getAttribute('color'),
     distance: distanceColours(positions, sorted),
-    camera: cameraDrawing(detail, 0.3 * median),
+    camera: rig ? rig.group : cameraDrawing(detail.frustum_rays, 0.3 * median),
     grid,
     cell,
     median,
     wide: !detail.frustum_rays,
     panorama: detail.camera_class === 'panorama',
+    rigForward: rig?.forward,
   };
   scene.add(shown.points, shown.camera, shown.grid);
   const of = total && Number(total) > positions.count ? ` of ${count(Number(total))}` : '';
   $('status').textContent = `showing ${count(positions.count)}${of} points` +
-      (of ? ` (subsampled to the --max-points budget)` : '');
+      (of ? ` (subsampled to the --max-points budget)` : '') +
+      (rig ? ` and ${detail.cameras.length} cameras in the body frame (${detail.record.frame ?? 'body'})` : '');
   applyControls();
   resetView();
   document.title = `omnipoint view: ${name}`;
@@ -200,6 +252,14 @@ async function showCloud(name, detail) {
 const fileUrl = (name, file, route = '/files') =>
   `${route}/${name.split('/').map(encodeURIComponent).join('/')}/${file}`;
 
+function figure(href, src, caption) {
+  const item = document.createElement('figure');
+  const link = Object.assign(document.createElement('a'), { href });
+  link.append(Object.assign(new Image(), { src, alt: caption }));
+  item.append(link, Object.assign(document.createElement('figcaption'), { textContent: caption }));
+  return item;
+}
+
 function showPictures(name, files) {
   // depth.png is 16-bit (a browser shows its high byte): the server colours it (Viridis).
   const pictures = [
@@ -207,15 +267,40 @@ function showPictures(name, files) {
     ['depth.png', 'depth z', '/colourised'], ['mask.png', 'mask', '/files'],
   ];
   const figures = pictures.filter(([file]) => files.includes(file)).map(([file, caption, route]) => {
-    const figure = document.createElement('figure');
-    const link = Object.assign(document.createElement('a'), { href: fileUrl(name, file), target: '_blank' });
-    link.append(Object.assign(new Image(), { src: fileUrl(name, file, route), alt: caption }));
-    const text = document.createElement('figcaption');
-    text.textContent = caption;
-    figure.append(link, text);
-    return figure;
+    const item = figure(fileUrl(name, file), fileUrl(name, file, route), caption);
+    item.querySelector('a').target = '_blank';
+    return item;
   });
   $('pictures').replaceChildren(...figures);
+}
+
+// A rig frame's camera images, each a link to that camera's own prediction.
+function showRigPictures(cameras) {
+  $('pictures').replaceChildren(...cameras.filter((camera) => camera.has_image).map((camera) =>
+    figure(`#${encodeURIComponent(camera.folder)}`, fileUrl(camera.folder, 'image.png'), camera.name)));
+}
+
+function showRigSummary(detail) {
+  const record = detail.record, rows = [];
+  const add = (term, value) => { if (value !== undefined && value !== null && value !== '') rows.push([term, value]); };
+  add('body frame', record.frame);
+  add('rig scale', typeof record.rig_scale === 'number' ? `${record.rig_scale.toFixed(4)} (${record.scale_rule ?? ''})` : undefined);
+  add('overlap residual', record.overlap_residual);
+  add('lidar', record.lidar ?? 'none');
+  if (record.missing_cameras?.length) add('missing cameras', record.missing_cameras.join(', '));
+  add('fused points', record.fused_points?.toLocaleString('en'));
+  for (const camera of detail.cameras) {
+    const disagreement = typeof camera.disagreement === 'number' ? `, disagreement ${(100 * camera.disagreement).toFixed(2)} %` : '';
+    const applied = typeof camera.applied_scale === 'number' && camera.applied_scale !== camera.scale
+      ? `, shown at the rig scale ${camera.applied_scale.toFixed(4)}` : '';
+    add(camera.name, `scale ${camera.scale.toFixed(4)} (${camera.scale_source})${disagreement}${applied}` +
+      (camera.camera_error ? ` — no camera: ${camera.camera_error}` : ''));
+  }
+  add('files', detail.files.join(', '));
+  $('summary').replaceChildren(...rows.flatMap(([term, value]) => [
+    Object.assign(document.createElement('dt'), { textContent: term }),
+    Object.assign(document.createElement('dd'), { textContent: value }),
+  ]));
 }
 
 function showSummary(record, files) {
@@ -267,8 +352,13 @@ async function showPrediction(name) {
     return;
   }
   const detail = await response.json();
-  showPictures(name, detail.files);
-  showSummary(detail.record, detail.files);
+  if (detail.kind === 'rig') {
+    showRigPictures(detail.cameras);
+    showRigSummary(detail);
+  } else {
+    showPictures(name, detail.files);
+    showSummary(detail.record, detail.files);
+  }
   await showCloud(name, detail);
   render();
 }
@@ -276,10 +366,11 @@ async function showPrediction(name) {
 async function main() {
   const list = await (await fetch('/api/predictions')).json();
   $('root').textContent = list.root;
-  $('folders').replaceChildren(...list.predictions.map(({ name, points }) => {
+  $('folders').replaceChildren(...list.predictions.map(({ name, kind, points }) => {
     const link = Object.assign(document.createElement('a'), { href: `#${encodeURIComponent(name)}`, textContent: name });
     link.dataset.name = name;
-    if (points !== null) link.append(document.createElement('br'), Object.assign(document.createElement('small'), { textContent: `${count(points)} points` }));
+    const about = [kind === 'rig' ? 'rig frame' : '', points !== null ? `${count(points)} points` : ''].filter(Boolean).join(' · ');
+    if (about) link.append(document.createElement('br'), Object.assign(document.createElement('small'), { textContent: about }));
     const item = document.createElement('li');
     item.append(link);
     return item;

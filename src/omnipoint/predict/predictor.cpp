@@ -251,7 +251,7 @@ std::vector<Prediction> Model::predict_batch(const at::Tensor& images,
       p.warnings = sparse_depth_warnings(
           sparse_in_image[b].item<int64_t>(),
           sparse.lidar_points.defined() ? sparse.lidar_points.size(0) : 0, p.sparse_samples,
-          p.alignment_factor, options.sparse_depth_is_metric);
+          p.alignment_factor, options.sparse_depth_is_metric, sparse.placement_advice);
     // Before the flying-pixel filter, as the fit's residual.
     if (network_rays.defined() && inputs.camera && p.mask.any().item<bool>())
       p.camera_agreement = camera::angular_residual(*inputs.camera, network_rays[b], p.mask);
@@ -303,14 +303,14 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
 }
 
 std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_points, int64_t used,
-                                               double alignment_factor,
-                                               bool sparse_depth_is_metric) {
+                                               double alignment_factor, bool sparse_depth_is_metric,
+                                               const std::string& placement_advice) {
   std::vector<std::string> warnings;
   const auto count = [](int64_t n) { return std::to_string(n); };
   if (cloud_points > 0 && (in_image < 20 || in_image * 200 < cloud_points))
     warnings.push_back("only " + count(in_image) + " of the point cloud's " + count(cloud_points) +
-                       " points land in the image: is the cloud in the camera frame? (pass "
-                       "--lidar-to-camera, or check the transform's direction)");
+                       " points land in the image: is the cloud in the camera frame? (" +
+                       placement_advice + ")");
   if (used == 0) {
     warnings.emplace_back(
         "no sparse depth sample falls where the prediction is valid: the metric "

@@ -39,6 +39,10 @@ class Network;
 
 namespace omnipoint::predict {
 
+// sparse_depth_warnings' advice for a point cloud that misses the image, on the command line.
+inline constexpr const char* kLidarToCameraAdvice =
+    "pass --lidar-to-camera, or check the transform's direction";
+
 // Metric sparse depth for one image; zero or non-finite values are missing samples.
 struct SparseDepthInput {
   // A depth map (H, W) at the image's size, in metres: planar depth z (depth images, the
@@ -49,6 +53,9 @@ struct SparseDepthInput {
   // a z-buffer; camera_from_lidar (4, 4) maps it into the camera frame (identity if undefined).
   at::Tensor lidar_points;
   at::Tensor camera_from_lidar;
+  // What places the point cloud in the camera frame, as the warning about a cloud that misses
+  // the image advises checking it (predict's --lidar-to-camera; a rig's poses).
+  std::string placement_advice = kLidarToCameraAdvice;
 
   bool empty() const { return !depth_map.defined() && !lidar_points.defined(); }
 };
@@ -178,9 +185,11 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
 // a point cloud of which almost nothing lands in the image (< 0.5 % of its points, or < 20: the
 // wrong frame or transform), and metric sparse depth whose scale disagrees with the network's
 // by more than 3x (wrong units such as a KITTI PNG read as millimetres, or a wrong transform).
-std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_points, int64_t used,
-                                               double alignment_factor,
-                                               bool sparse_depth_is_metric);
+// `placement_advice` is what the warning about a cloud that misses the image advises
+// (SparseDepthInput::placement_advice).
+std::vector<std::string> sparse_depth_warnings(
+    int64_t in_image, int64_t cloud_points, int64_t used, double alignment_factor,
+    bool sparse_depth_is_metric, const std::string& placement_advice = kLidarToCameraAdvice);
 
 // Removes the flying pixels at depth edges (geometry::depth_edge_mask on the radial distance,
 // so wide lenses and panoramas too) from p.mask and zeroes their points, distance and depth

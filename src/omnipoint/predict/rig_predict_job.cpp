@@ -202,6 +202,9 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
       item.sparse_depth.lidar_points = sweep;
       item.sparse_depth.camera_from_lidar =
           inverse_pose(image.camera->body_from_camera).matmul(rig_.lidar->body_from_lidar);
+      item.sparse_depth.placement_advice =
+          "the rig places the sweep: check the rig file's lidar.body_from_lidar and this "
+          "camera's body_from_camera, each the sensor-to-body transform";
     }
     RigCameraResult result;
     result.name = image.camera->name;
