@@ -116,9 +116,9 @@ TEST(RigOverlap, TheTruthIsLeftAsItIs) {
   EXPECT_LT(*result.residual, 1e-3);
   for (size_t c = 0; c < cameras.size(); ++c) EXPECT_NEAR(result.factors[c], 1.0, 1e-3);
   for (const OverlapPair& pair : result.pairs)
-    std::printf("%zu sees %zu: %lld pixels, %lld inliers, log ratio %.2e, residual %.2e\n",
-                pair.i, pair.j, static_cast<long long>(pair.pixels),
-                static_cast<long long>(pair.inliers), pair.log_ratio, pair.residual);
+    std::printf("%zu sees %zu: %lld pixels, %lld inliers, log ratio %.2e, residual %.2e\n", pair.i,
+                pair.j, static_cast<long long>(pair.pixels), static_cast<long long>(pair.inliers),
+                pair.log_ratio, pair.residual);
   // The panorama sees every other camera's points.
   for (size_t j = 0; j < cameras.size(); ++j) {
     if (j == 3) continue;
@@ -149,8 +149,8 @@ TEST(RigOverlap, CamerasThatOverlapNothingAreLeftAlone) {
   // A larger minimum than the overlap has: the pair does not count.
   OverlapOptions strict;
   strict.min_pixels = 64 * 48;
-  EXPECT_FALSE(reconcile_overlap_scales({view("front", 0.8), view("front_right", 1.2)}, strict)
-                   .residual);
+  EXPECT_FALSE(
+      reconcile_overlap_scales({view("front", 0.8), view("front_right", 1.2)}, strict).residual);
 }
 
 TEST(RigOverlap, LidarAlignedCamerasAreAnchors) {

@@ -72,7 +72,8 @@ double spread_of(const std::vector<double>& ratios) {
 // Scores the frames of one rule as the job writes them.
 class RuleScorer : public RigPredictJobObserver {
  public:
-  RuleScorer(RigEvalRule& rule, fs::path truth_dir) : rule_(rule), truth_dir_(std::move(truth_dir)) {}
+  RuleScorer(RigEvalRule& rule, fs::path truth_dir)
+      : rule_(rule), truth_dir_(std::move(truth_dir)) {}
   void frame_written(const RigFrameResult& frame) override {
     RigEvalFrame scored;
     scored.name = frame.name;
@@ -80,9 +81,9 @@ class RuleScorer : public RigPredictJobObserver {
     std::vector<double> ratios, applied_ratios;
     for (const RigCameraResult& camera : frame.cameras) {
       const Prediction& p = camera.prediction;
-      const at::Tensor truth = truth_distance(truth_dir_ / frame.name / camera.name /
-                                                  "distance.npy",
-                                              p.distance.size(0), p.distance.size(1));
+      const at::Tensor truth =
+          truth_distance(truth_dir_ / frame.name / camera.name / "distance.npy", p.distance.size(0),
+                         p.distance.size(1));
       const at::Tensor network = p.distance / camera.applied_scale;
       const at::Tensor valid = p.mask & (truth > 0);
       if (valid.sum().item<int64_t>() == 0)
@@ -148,9 +149,9 @@ json rule_json(const RigEvalRule& rule) {
   for (const RigEvalFrame& frame : rule.frames) {
     json cameras = json::object();
     for (const RigEvalCamera& c : frame.cameras)
-      cameras[c.name] = {{"scale_source", c.scale_source}, {"scale", c.scale},
-                         {"applied_scale", c.applied_scale}, {"true_scale", c.true_scale},
-                         {"error", c.error},                 {"applied_error", c.applied_error}};
+      cameras[c.name] = {
+          {"scale_source", c.scale_source}, {"scale", c.scale}, {"applied_scale", c.applied_scale},
+          {"true_scale", c.true_scale},     {"error", c.error}, {"applied_error", c.applied_error}};
     frames.push_back({{"frame", frame.name},
                       {"spread", frame.spread},
                       {"applied_spread", frame.applied_spread},
@@ -171,7 +172,9 @@ json rule_json(const RigEvalRule& rule) {
           {"frames", frames}};
 }
 
-std::string percent(double value) { return number(100 * value, 3) + " %"; }
+std::string percent(double value) {
+  return number(100 * value, 3) + " %";
+}
 
 std::string markdown_table(const std::vector<RigEvalRule>& rules) {
   if (rules.empty()) return "";

@@ -36,28 +36,28 @@ struct RigEvalOptions {
 
 struct RigEvalCamera {
   std::string name;
-  std::string scale_source;   // rig.json's
-  double scale = 0;           // rig.json's
-  double applied_scale = 0;   // rig.json's
-  double true_scale = 0;      // the network distances' factor to the truth
-  double error = 0;           // scale / true scale - 1
-  double applied_error = 0;   // applied scale / true scale - 1
+  std::string scale_source;  // rig.json's
+  double scale = 0;          // rig.json's
+  double applied_scale = 0;  // rig.json's
+  double true_scale = 0;     // the network distances' factor to the truth
+  double error = 0;          // scale / true scale - 1
+  double applied_error = 0;  // applied scale / true scale - 1
 };
 
 struct RigEvalFrame {
   std::string name;
   std::vector<RigEvalCamera> cameras;
-  double spread = 0;                        // max / min of scale / true scale, minus 1
-  double applied_spread = 0;                // the same for the applied scales
-  std::optional<double> overlap_residual;   // rig.json's
+  double spread = 0;                       // max / min of scale / true scale, minus 1
+  double applied_spread = 0;               // the same for the applied scales
+  std::optional<double> overlap_residual;  // rig.json's
 };
 
 struct RigEvalRule {
   std::string name;  // "lidar", "overlap", "independent"
   std::vector<RigEvalFrame> frames;
   // Means over the frames.
-  std::vector<std::string> camera_names;     // the rig's cameras, in order
-  std::vector<double> mean_abs_error;        // per camera, over the frames that have it
+  std::vector<std::string> camera_names;  // the rig's cameras, in order
+  std::vector<double> mean_abs_error;     // per camera, over the frames that have it
   double mean_spread = 0, mean_applied_spread = 0;
   std::optional<double> mean_overlap_residual;  // over the frames that have one
 };

@@ -154,8 +154,7 @@ void OverlapOptions::Check() const {
   if (max_iterations < 1)
     throw std::invalid_argument("overlap: max_iterations " + std::to_string(max_iterations) +
                                 ": expected >= 1");
-  if (!(tolerance > 0))
-    throw std::invalid_argument("overlap: tolerance: expected > 0");
+  if (!(tolerance > 0)) throw std::invalid_argument("overlap: tolerance: expected > 0");
 }
 
 namespace {
@@ -183,9 +182,9 @@ std::vector<std::pair<size_t, size_t>> counted_pairs(const std::vector<OverlapCa
   std::vector<std::pair<size_t, size_t>> counted;
   for (size_t i = 0; i < cameras.size(); ++i)
     for (size_t j = 0; j < cameras.size(); ++j)
-      if (i != j && measure_pair(cameras, poses, std::vector<double>(cameras.size(), 0.0), i, j,
-                                 options.band)
-                            .inliers >= options.min_pixels)
+      if (i != j &&
+          measure_pair(cameras, poses, std::vector<double>(cameras.size(), 0.0), i, j, options.band)
+                  .inliers >= options.min_pixels)
         counted.emplace_back(i, j);
   return counted;
 }
@@ -251,8 +250,7 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
       if (values.empty()) continue;
       std::sort(values.begin(), values.end());
       const size_t m = values.size();
-      const double median =
-          m % 2 == 1 ? values[m / 2] : 0.5 * (values[m / 2 - 1] + values[m / 2]);
+      const double median = m % 2 == 1 ? values[m / 2] : 0.5 * (values[m / 2 - 1] + values[m / 2]);
       const double target = options.free_group_scale ? std::log(*options.free_group_scale) : 0;
       for (size_t c : free_cameras)
         if (result.group[c] == static_cast<int>(root)) log_factor[c] += target - median;
@@ -270,9 +268,9 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
         measures.push_back(measure_pair(cameras, poses, log_factor, i, j, options.band));
       // Each pair wants log f_i − log f_j to move by −its log ratio; least squares, minimum norm
       // (a free group's constant is the gauge, set by level_free_groups).
-      at::Tensor a = at::zeros({static_cast<int64_t>(counted.size()),
-                                static_cast<int64_t>(free_cameras.size())},
-                               at::kDouble);
+      at::Tensor a = at::zeros(
+          {static_cast<int64_t>(counted.size()), static_cast<int64_t>(free_cameras.size())},
+          at::kDouble);
       at::Tensor b = at::zeros({static_cast<int64_t>(counted.size())}, at::kDouble);
       for (size_t k = 0; k < counted.size(); ++k) {
         const auto [i, j] = counted[k];

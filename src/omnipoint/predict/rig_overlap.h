@@ -69,17 +69,17 @@ struct OverlapOptions {
 
 // One counted directed pair at the final scales.
 struct OverlapPair {
-  size_t i = 0, j = 0;     // camera i sees camera j's points
-  int64_t pixels = 0;      // j's pixels that land on i's valid pixels
-  int64_t inliers = 0;     // of them within the band of the pair's median
-  double log_ratio = 0;    // median over the inliers of log |i's point| - log |j's point|
-  double residual = 0;     // median over all `pixels` of | |i's point| / |j's point| - 1 |
+  size_t i = 0, j = 0;   // camera i sees camera j's points
+  int64_t pixels = 0;    // j's pixels that land on i's valid pixels
+  int64_t inliers = 0;   // of them within the band of the pair's median
+  double log_ratio = 0;  // median over the inliers of log |i's point| - log |j's point|
+  double residual = 0;   // median over all `pixels` of | |i's point| / |j's point| - 1 |
 };
 
 struct OverlapResult {
-  std::vector<double> factors;    // per camera: multiply its distances and scale by it
-  std::vector<bool> reconciled;   // per camera: not anchored, and in a counted pair
-  std::vector<int> group;         // per camera: its group of linked cameras, -1 in no pair
+  std::vector<double> factors;     // per camera: multiply its distances and scale by it
+  std::vector<bool> reconciled;    // per camera: not anchored, and in a counted pair
+  std::vector<int> group;          // per camera: its group of linked cameras, -1 in no pair
   std::vector<OverlapPair> pairs;  // the counted pairs, measured at the final scales
   // The disagreement left: the median over every overlapping pixel of every counted pair (the
   // pairs' `pixels`, occlusions included) of | |i's point| / |j's point| - 1 |, at the final

@@ -83,8 +83,8 @@ RigRender render_rig(const Scene& scene, const io::Rig& rig, const at::Tensor& w
     Scene placed = scene;
     placed.pose = pose_of(world_from_camera);
     // Float64 rays: the surface points reach the body frame exactly.
-    const camera::Rays rays = camera.camera.ray_map(
-        at::TensorOptions().dtype(at::kDouble).device(options.synth.device));
+    const camera::Rays rays =
+        camera.camera.ray_map(at::TensorOptions().dtype(at::kDouble).device(options.synth.device));
     const Render render = render_scene(placed, rays.rays, rays.valid, options.synth.render);
     const at::Tensor points = cpu(rays.rays) * cpu(render.distance).unsqueeze(-1);
     const at::Tensor body_points =
@@ -109,8 +109,8 @@ RigRender render_rig(const Scene& scene, const io::Rig& rig, const at::Tensor& w
     ranges.ambient_occlusion = false;
     ranges.max_distance = options.lidar_range;
     const at::Tensor beams = lidar_beam_directions(options.lidar_pattern);
-    const Render returns = render_scene(
-        placed, beams, at::ones({beams.size(0), beams.size(1)}, at::kBool), ranges);
+    const Render returns =
+        render_scene(placed, beams, at::ones({beams.size(0), beams.size(1)}, at::kBool), ranges);
     const at::Tensor hit = returns.mask.reshape({-1});
     result.lidar_points =
         (beams.reshape({-1, 3}) * returns.distance.reshape({-1, 1})).index({hit}).contiguous();
@@ -164,8 +164,7 @@ RigFramesSummary write_rig_frames(const std::string& out, const RigFramesOptions
     }
     const Scene scene = make_scene(options.scene, options.seed + static_cast<std::uint64_t>(k));
     const RigRender render =
-        render_rig(scene, rig,
-                   world_from_body(scene, options.render.body_axes, options.render.yaw),
+        render_rig(scene, rig, world_from_body(scene, options.render.body_axes, options.render.yaw),
                    options.render);
     io::StagedFolder truth(root / "truth" / name);
     for (const RigCameraRender& camera : render.cameras)

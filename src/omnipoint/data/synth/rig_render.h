@@ -81,11 +81,11 @@ void write_lidar_sweep(const std::string& path, const at::Tensor& points, int64_
 // (io::StagedFolder): a frames folder that exists is whole and has its truth, so a rerun keeps
 // the frames that exist and renders the others.
 struct RigFramesOptions {
-  std::string rig;                        // the rig file (io::read_rig)
-  SceneKind scene = SceneKind::kIndoor;   // the scenes' kind
-  std::uint64_t seed = 0;                 // frame k renders the scene of seed + k
-  int64_t frames = 1;                     // how many
-  RigRenderOptions render;                // the body's axes and yaw, render settings, LiDAR
+  std::string rig;                       // the rig file (io::read_rig)
+  SceneKind scene = SceneKind::kIndoor;  // the scenes' kind
+  std::uint64_t seed = 0;                // frame k renders the scene of seed + k
+  int64_t frames = 1;                    // how many
+  RigRenderOptions render;               // the body's axes and yaw, render settings, LiDAR
 
   // std::invalid_argument, one line naming the option, for a value out of range.
   void Check() const;
