@@ -22,6 +22,7 @@
 #include "cli/dataset_options.h"
 #include "cli/device.h"
 #include "cli/download_report.h"
+#include "cli/eval_rig.h"
 #include "cli/threads.h"
 #include "omnipoint/eval/eval_job.h"
 
@@ -185,9 +186,22 @@ void add_eval_command(CLI::App& app) {
       "to --out");
   add_predictor_options(cmd, *options);
   add_benchmark_options(cmd, *options);
+  auto rig = std::make_shared<RigEvalArgs>();
+  add_rig_eval_options(cmd, *rig);
   add_threads_option(cmd, &options->threads);
   auto* sparse = cmd->get_option("--sparse-depth");
-  cmd->callback([options, sparse] { run_eval(*options, sparse->count() > 0); });
+  cmd->callback([options, sparse, rig] {
+    if (!rig->rig.empty()) {
+      use_threads(options->threads);
+      const eval::EvalJobOptions& job = options->job;
+      run_rig_eval(*rig,
+                   {job.model, options->device, options->precision, job.output_dir, job.num_tokens,
+                    !job.data.empty() || !job.suite.empty() || !job.predictions.empty() ||
+                        !job.baseline.empty() || !job.random_model.empty()});
+      return;
+    }
+    run_eval(*options, sparse->count() > 0);
+  });
 }
 
 }  // namespace omnipoint::cli

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
 #include "omnipoint/data/synth/kitti_raw_drive.h"
+#include "omnipoint/data/synth/rig_render.h"
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/camera_file.h"
@@ -41,6 +43,10 @@ struct SynthArgs {
   std::string shard_text = "0/1";
   std::array<int64_t, 2> shard{0, 1};
   int threads = 0;  // 0: every core
+  // --rig: every camera of a rig at its body pose, frames + truth (data/synth/rig_render.h).
+  std::string rig, body_axes = "camera";
+  double yaw_deg = 0;
+  bool lidar_sweep = false;
 };
 
 data::synth::SynthOptions synth_options(const SynthArgs& args) {
@@ -116,6 +122,38 @@ void render_kitti_raw(const SynthArgs& args) {
             << " % of the pixels labelled, in " << seconds << " s\n";
 }
 
+// --count frames of a rig (--rig): OUT/rig.json, OUT/frames/<frame>/<camera>.png [lidar.bin],
+// OUT/truth/<frame>/<camera>/; resumes where an earlier run stopped.
+void render_rig_frames(const SynthArgs& args) {
+  if (!args.camera.empty() || !args.benchmark.empty() || args.kitti_raw)
+    throw std::invalid_argument(
+        "--rig renders the rig's cameras: no --camera, --benchmark or "
+        "--kitti-raw with it");
+  data::synth::RigFramesOptions options;
+  options.rig = args.rig;
+  options.scene = data::synth::parse_scene_kind(args.scene);
+  options.seed = args.seed;
+  options.frames = args.count;
+  options.render.body_axes = data::synth::parse_body_axes(args.body_axes);
+  options.render.yaw = args.yaw_deg * M_PI / 180.0;
+  options.render.synth = synth_options(args);
+  options.render.lidar = args.lidar_sweep;
+  options.render.lidar_pattern = args.lidar;
+  options.render.lidar_pattern.min_elevation_deg = args.lidar_elevation[0];
+  options.render.lidar_pattern.max_elevation_deg = args.lidar_elevation[1];
+  options.render.lidar_range = args.lidar_range;
+  const auto start = std::chrono::steady_clock::now();
+  const data::synth::RigFramesSummary summary = data::synth::write_rig_frames(
+      args.out, options, [](const std::string& frame) { std::cout << frame << "\n"; });
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cerr << "synth: rig " << args.rig << ": " << summary.rendered << " frame(s) rendered";
+  if (summary.kept > 0) std::cerr << ", " << summary.kept << " already there";
+  if (args.lidar_sweep) std::cerr << ", " << summary.lidar_points << " LiDAR returns";
+  std::cerr << " in " << seconds << " s; predict with: omnipoint predict --rig " << args.out
+            << "/rig.json " << args.out << "/frames --out PREDICTIONS\n";
+}
+
 // "K/N" with 0 <= K < N.
 std::array<int64_t, 2> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
@@ -168,19 +206,37 @@ void add_synth_command(CLI::App& app) {
                 "(docs/TRAINING.md)");
   cmd->add_option("--held-out", args->held_out, "--kitti-raw: held-out frames (test_files.txt)")
       ->capture_default_str();
-  cmd->add_option("--lidar-beams", args->lidar.beams, "--kitti-raw: the LiDAR's beams")
+  cmd->add_option("--lidar-beams", args->lidar.beams,
+                  "--kitti-raw, --rig --lidar: the LiDAR's beams")
       ->capture_default_str();
-  cmd->add_option("--lidar-elevation", args->lidar_elevation,
-                  "--kitti-raw: the beams' elevations MIN MAX in degrees (up positive)")
+  cmd->add_option(
+         "--lidar-elevation", args->lidar_elevation,
+         "--kitti-raw, --rig --lidar: the beams' elevations MIN MAX in degrees (up positive)")
       ->expected(2)
       ->capture_default_str();
   cmd->add_option("--lidar-azimuth-steps", args->lidar.azimuth_steps,
-                  "--kitti-raw: firings per revolution")
+                  "--kitti-raw, --rig --lidar: firings per revolution")
       ->capture_default_str();
-  cmd->add_option("--lidar-range", args->lidar_range, "--kitti-raw: metres")->capture_default_str();
+  cmd->add_option("--lidar-range", args->lidar_range, "--kitti-raw, --rig --lidar: metres")
+      ->capture_default_str();
+  cmd->add_option("--rig", args->rig,
+                  "render --count frames of a rig file's cameras (scene seed + k each) into "
+                  "OUT/frames/<frame>/<camera>.png with their truth in OUT/truth (docs/RIG.md)");
+  cmd->add_option("--body-axes", args->body_axes,
+                  "--rig: the body's axes on the scene's viewpoint: camera (x right, y down, z "
+                  "forward) | vehicle (x forward, y left, z up)")
+      ->capture_default_str();
+  cmd->add_option("--yaw", args->yaw_deg, "--rig: the body turned about the up axis, degrees")
+      ->capture_default_str();
+  cmd->add_flag("--lidar", args->lidar_sweep,
+                "--rig: cast the rig's LiDAR (--lidar-beams ...) into each frame's lidar.bin");
   add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
     use_threads(args->threads);
+    if (!args->rig.empty()) {
+      render_rig_frames(*args);
+      return;
+    }
     if (args->kitti_raw) {
       if (!args->benchmark.empty())
         throw std::invalid_argument("--kitti-raw and --benchmark: choose one");

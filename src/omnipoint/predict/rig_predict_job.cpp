@@ -21,6 +21,7 @@
 #include "omnipoint/io/staged_folder.h"
 #include "omnipoint/predict/colmap_scene.h"
 #include "omnipoint/predict/inputs.h"
+#include "omnipoint/predict/rig_overlap.h"
 
 namespace omnipoint::predict {
 
@@ -137,6 +138,7 @@ class JobRun {
 
  private:
   RigFrameResult predict_frame(const std::string& name);
+  std::vector<OverlapCamera> overlap_cameras(const RigFrameResult& frame) const;
   void set_scales(RigFrameResult& frame) const;
   void write_frame(RigFrameResult& frame, const std::vector<CameraImage>& images) const;
   std::string rig_json(const RigFrameResult& frame) const;
@@ -183,12 +185,13 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
                    ": the frame is predicted without it");
 
   at::Tensor sweep;  // (N, 3) in the LiDAR's frame
-  if (files.lidar && !rig_.lidar) {
-    warn(name, files.lidar->string() +
-                   ": the rig file has no lidar (body_from_lidar): the sweep is not used");
-  } else if (files.lidar) {
-    sweep = io::read_point_cloud(files.lidar->string(), lidar_floats_per_point_, "LiDAR sweep");
-    frame.lidar = files.lidar->string();
+  const std::optional<fs::path> lidar = options_.lidar ? files.lidar : std::nullopt;
+  if (lidar && !rig_.lidar) {
+    warn(name,
+         lidar->string() + ": the rig file has no lidar (body_from_lidar): the sweep is not used");
+  } else if (lidar) {
+    sweep = io::read_point_cloud(lidar->string(), lidar_floats_per_point_, "LiDAR sweep");
+    frame.lidar = lidar->string();
   }
 
   for (const CameraImage& image : images) {
@@ -219,26 +222,64 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
   return frame;
 }
 
+// The overlap rule's view of the frame's predictions, at their current scales.
+std::vector<OverlapCamera> JobRun::overlap_cameras(const RigFrameResult& frame) const {
+  std::vector<OverlapCamera> cameras;
+  for (const RigCameraResult& camera : frame.cameras) {
+    const Prediction& p = camera.prediction;
+    const io::RigCamera& rig_camera = *rig_.find(camera.name);
+    const int64_t height = p.distance.size(0), width = p.distance.size(1);
+    cameras.push_back({rig_camera.camera.width() == width && rig_camera.camera.height() == height
+                           ? rig_camera.camera
+                           : rig_camera.camera.resized(width, height),
+                       rig_camera.body_from_camera, p.rays, p.distance, p.mask, camera.scale,
+                       camera.scale_source == "lidar"});
+  }
+  return cameras;
+}
+
 void JobRun::set_scales(RigFrameResult& frame) const {
-  std::vector<double> lidar_scales, all_scales;
+  std::vector<double> lidar_scales;
   for (RigCameraResult& camera : frame.cameras) {
     camera.scale = camera.prediction.metric_scale;
     const bool aligned = !frame.lidar.empty() && camera.prediction.sparse_samples > 0;
     camera.scale_source = aligned ? "lidar" : "network";
-    all_scales.push_back(camera.scale);
     if (aligned) lidar_scales.push_back(camera.scale);
   }
   const bool by_lidar = !lidar_scales.empty();
+  if (options_.overlap) {
+    OverlapOptions overlap;
+    if (by_lidar) overlap.free_group_scale = median(lidar_scales);
+    const OverlapResult result = reconcile_overlap_scales(overlap_cameras(frame), overlap);
+    for (size_t c = 0; c < frame.cameras.size(); ++c) {
+      if (!result.reconciled[c]) continue;
+      frame.cameras[c].scale *= result.factors[c];
+      frame.cameras[c].scale_source = "overlap";
+    }
+    frame.overlap_residual = result.residual;
+    frame.overlaps = result.pairs;
+  }
+  std::vector<double> all_scales;
+  for (const RigCameraResult& camera : frame.cameras) all_scales.push_back(camera.scale);
   frame.rig_scale = median(by_lidar ? lidar_scales : all_scales);
   for (RigCameraResult& camera : frame.cameras) {
     camera.disagreement = camera.scale / frame.rig_scale - 1.0;
-    camera.applied_scale = camera.scale_source == "lidar" ? camera.scale : frame.rig_scale;
-    if (camera.applied_scale == camera.scale) continue;
-    rescale(camera.prediction, camera.applied_scale / camera.scale);
+    camera.applied_scale = camera.scale_source == "network" ? frame.rig_scale : camera.scale;
+    const double own = camera.prediction.metric_scale;
+    if (camera.applied_scale == own) continue;
+    rescale(camera.prediction, camera.applied_scale / own);
     camera.prediction.notes.push_back(
-        "brought to the rig scale " + number(frame.rig_scale) + " (its own " +
-        number(camera.scale) + "; the median of the " +
-        (by_lidar ? "LiDAR-aligned cameras' scales" : "cameras' scales") + ")");
+        camera.scale_source == "overlap"
+            ? "reconciled with the cameras it overlaps: scale " + number(camera.applied_scale) +
+                  " (the network's " + number(own) + ")"
+            : "brought to the rig scale " + number(frame.rig_scale) + " (its own " + number(own) +
+                  "; the median of the " +
+                  (by_lidar ? "LiDAR-aligned cameras' scales" : "cameras' scales") + ")");
+  }
+  if (!options_.overlap) {  // the disagreement the median rule leaves over the overlaps
+    const OverlapResult left = measure_overlaps(overlap_cameras(frame));
+    frame.overlap_residual = left.residual;
+    frame.overlaps = left.pairs;
   }
 }
 
@@ -253,18 +294,32 @@ std::string JobRun::rig_json(const RigFrameResult& frame) const {
         {"sparse_samples", camera.prediction.sparse_samples},
         {"image", camera.image},
         {"body_from_camera", pose_rows(rig_.find(camera.name)->body_from_camera)}};
-  const bool by_lidar =
-      std::any_of(frame.cameras.begin(), frame.cameras.end(),
-                  [](const RigCameraResult& camera) { return camera.scale_source == "lidar"; });
-  json report = {{"frame", rig_.frame},
-                 {"rig_scale", frame.rig_scale},
-                 {"overlap_residual", nullptr},
-                 {"scale_rule", by_lidar ? "median of the LiDAR-aligned cameras' scales"
-                                         : "median of the cameras' network scales"},
-                 {"lidar", frame.lidar.empty() ? json(nullptr) : json(frame.lidar)},
-                 {"missing_cameras", frame.missing_cameras},
-                 {"fused_points", frame.fused_points},
-                 {"cameras", cameras}};
+  const auto any_source = [&](const char* source) {
+    return std::any_of(
+        frame.cameras.begin(), frame.cameras.end(),
+        [&](const RigCameraResult& camera) { return camera.scale_source == source; });
+  };
+  std::string rule = any_source("lidar") ? "median of the LiDAR-aligned cameras' scales"
+                                         : "median of the cameras' scales";
+  if (any_source("overlap")) rule += ", the others reconciled where their views overlap";
+  json overlaps = json::array();
+  for (const OverlapPair& pair : frame.overlaps)
+    overlaps.push_back({{"camera", frame.cameras[pair.i].name},
+                        {"sees", frame.cameras[pair.j].name},
+                        {"pixels", pair.pixels},
+                        {"inliers", pair.inliers},
+                        {"log_ratio", pair.log_ratio},
+                        {"residual", pair.residual}});
+  json report = {
+      {"frame", rig_.frame},
+      {"rig_scale", frame.rig_scale},
+      {"overlap_residual", frame.overlap_residual ? json(*frame.overlap_residual) : json(nullptr)},
+      {"scale_rule", rule},
+      {"lidar", frame.lidar.empty() ? json(nullptr) : json(frame.lidar)},
+      {"missing_cameras", frame.missing_cameras},
+      {"fused_points", frame.fused_points},
+      {"cameras", cameras},
+      {"overlaps", overlaps}};
   return report.dump(2) + "\n";
 }
 
@@ -358,6 +413,8 @@ std::string describe(const RigFrameResult& frame) {
                      std::to_string(frame.fused_points) + " points in the body frame, rig scale " +
                      number(frame.rig_scale, 4);
   if (!frame.lidar.empty()) text += ", LiDAR " + fs::path(frame.lidar).filename().string();
+  if (frame.overlap_residual)
+    text += ", overlap residual " + number(100 * *frame.overlap_residual, 3) + "%";
   for (const RigCameraResult& camera : frame.cameras) {
     text += ", " + camera.name + " " + number(camera.scale, 4) + " " + camera.scale_source;
     if (std::abs(camera.disagreement) >= 5e-5)

@@ -14,17 +14,25 @@
 //   rig.json     the scales: {"frame", "rig_scale", "overlap_residual", "scale_rule", "lidar",
 //                "missing_cameras", "fused_points", "cameras": {NAME: {"scale", "scale_source",
 //                "disagreement", "applied_scale", "sparse_samples", "image",
-//                "body_from_camera"}}}
+//                "body_from_camera"}}, "overlaps": [{"camera", "sees", "pixels", "inliers",
+//                "log_ratio", "residual"}]}
 // The frame's folder appears complete or not at all (io::StagedFolder).
 //
 // One scale for the rig. A camera's scale is the factor that took its network distances to
 // metres: the network's metric scale times the alignment to the sweep's points in its view
-// ("scale_source": "lidar" when it had sweep samples, else "network"). The rig scale is the
-// median of the cameras' scales — of the LiDAR-aligned ones when any camera has sweep samples —
-// and a camera's disagreement is scale / rig scale - 1. A LiDAR-aligned camera keeps its own
-// scale (the sweep measured it); every other camera is brought to the rig scale
-// ("applied_scale"). The overlap rule of the design (reconciling LiDAR-less cameras from where
-// their views overlap) is not implemented: "overlap_residual" is null.
+// ("scale_source": "lidar" when it had sweep samples). The cameras without sweep samples are
+// reconciled from where their views overlap (rig_overlap.h: the same 3-D region seen by two
+// cameras must come out at the same distance; LiDAR-aligned cameras are fixed anchors, a group
+// of overlapping cameras without one keeps the median of its cameras' own scales, or the rig
+// scale below when the frame has LiDAR-aligned cameras): "scale_source": "overlap". A camera in
+// no overlap keeps the network's metric scale ("network"). The rig scale is the median of the
+// cameras' scales — of the LiDAR-aligned ones when any camera has sweep samples — and a
+// camera's disagreement is scale / rig scale - 1. LiDAR-aligned and overlap-reconciled cameras
+// keep their own scale; every "network" camera is brought to the rig scale ("applied_scale").
+// "overlap_residual" is the disagreement left over the overlaps at the final scales
+// (OverlapResult::residual), null when no pair of cameras overlaps; "overlaps" lists the
+// counted pairs. RigPredictJobOptions::overlap = false leaves the rule out (the median rule
+// alone; the residual is still measured).
 //
 //   omnipoint::predict::RigPredictJobOptions options;
 //   options.rig = "rig.json";
@@ -45,6 +53,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -53,6 +62,7 @@
 #include "omnipoint/model/precision.h"
 #include "omnipoint/predict/outputs.h"
 #include "omnipoint/predict/predictor.h"
+#include "omnipoint/predict/rig_overlap.h"
 
 namespace omnipoint::predict {
 
@@ -81,6 +91,9 @@ struct RigPredictJobOptions {
   int64_t max_size = 0;                 // longest image side for the network and outputs; 0: as is
   int64_t num_tokens = 0;               // ViT token budget; 0: the model's default
   double edge_rtol = kDefaultEdgeRtol;  // flying-pixel filter tolerance; 0: off
+  // The scales.
+  bool lidar = true;    // use the frames' sweeps; false: predict as if they had none
+  bool overlap = true;  // reconcile LiDAR-less cameras from their overlaps; false: median rule
   // Outputs.
   std::string output_dir = "predictions";  // OUT: one folder per frame below it
   std::set<std::string> output_files = default_output_files();  // per camera (outputs.h)
@@ -93,8 +106,8 @@ struct RigPredictJobOptions {
 struct RigCameraResult {
   std::string name;
   std::string image;         // its image file
-  std::string scale_source;  // "lidar" or "network"
-  double scale = 1;          // the network's metric scale x the alignment to the sweep
+  std::string scale_source;  // "lidar", "overlap" or "network"
+  double scale = 1;          // the network's metric scale x the alignment (sweep or overlap)
   double disagreement = 0;   // scale / rig scale - 1
   double applied_scale = 1;  // the scale of its outputs (its own, or the rig scale)
   Prediction prediction;     // at applied_scale, in its camera frame
@@ -102,11 +115,13 @@ struct RigCameraResult {
 
 // One written frame.
 struct RigFrameResult {
-  std::string name;                      // the frame folder's name
-  std::string folder;                    // OUT/<frame>
-  double rig_scale = 1;                  // the median of the cameras' scales (see the top)
-  std::string lidar;                     // the sweep file, "" when none
-  std::vector<RigCameraResult> cameras;  // in the rig's order
+  std::string name;                        // the frame folder's name
+  std::string folder;                      // OUT/<frame>
+  double rig_scale = 1;                    // the median of the cameras' scales (see the top)
+  std::optional<double> overlap_residual;  // see the top; unset when no pair overlaps
+  std::vector<OverlapPair> overlaps;       // the counted pairs (indices into `cameras`)
+  std::string lidar;                       // the sweep file, "" when none
+  std::vector<RigCameraResult> cameras;    // in the rig's order
   std::vector<std::string> missing_cameras;
   int64_t fused_points = 0;  // fused.ply's
 };

@@ -76,18 +76,7 @@ std::string velo_to_cam_text() {
 
 // The beams' unit directions (beams, azimuth_steps, 3) in the camera frame.
 at::Tensor beam_rays(const geometry::LidarPattern& pattern) {
-  const double step = pattern.beams > 1 ? (pattern.max_elevation_deg - pattern.min_elevation_deg) /
-                                              static_cast<double>(pattern.beams - 1)
-                                        : 0.0;
-  const at::Tensor elevation =
-      (at::arange(pattern.beams, at::kDouble) * step + pattern.min_elevation_deg) * (M_PI / 180.0);
-  const at::Tensor azimuth = at::arange(pattern.azimuth_steps, at::kDouble) *
-                             (2.0 * M_PI / static_cast<double>(pattern.azimuth_steps));
-  const auto grid = at::meshgrid({elevation, azimuth}, "ij");
-  const at::Tensor e = grid[0], a = grid[1];
-  const at::Tensor velodyne = at::stack({e.cos() * a.cos(), e.cos() * a.sin(), e.sin()}, -1);
-  const at::Tensor rotation = at::tensor(at::ArrayRef<double>(kCameraFromVelodyne, 9)).view({3, 3});
-  return at::matmul(velodyne, rotation.t()).contiguous();
+  return at::matmul(lidar_beam_directions(pattern), camera_from_velodyne_axes().t()).contiguous();
 }
 
 }  // namespace
@@ -100,14 +89,34 @@ void KittiRawDriveOptions::Check() const {
   if (held_out < 0) throw std::invalid_argument("--held-out: expected 0 or more frames");
   if (frames + held_out > 10000000000LL)
     throw std::invalid_argument("--count: KITTI's frame names hold at most 10^10 frames");
-  const geometry::LidarPattern& p = lidar;
+  check_lidar(lidar, lidar_range);
+}
+
+at::Tensor camera_from_velodyne_axes() {
+  return at::tensor(at::ArrayRef<double>(kCameraFromVelodyne, 9)).view({3, 3});
+}
+
+at::Tensor lidar_beam_directions(const geometry::LidarPattern& pattern) {
+  const double step = pattern.beams > 1 ? (pattern.max_elevation_deg - pattern.min_elevation_deg) /
+                                              static_cast<double>(pattern.beams - 1)
+                                        : 0.0;
+  const at::Tensor elevation =
+      (at::arange(pattern.beams, at::kDouble) * step + pattern.min_elevation_deg) * (M_PI / 180.0);
+  const at::Tensor azimuth = at::arange(pattern.azimuth_steps, at::kDouble) *
+                             (2.0 * M_PI / static_cast<double>(pattern.azimuth_steps));
+  const auto grid = at::meshgrid({elevation, azimuth}, "ij");
+  const at::Tensor e = grid[0], a = grid[1];
+  return at::stack({e.cos() * a.cos(), e.cos() * a.sin(), e.sin()}, -1);
+}
+
+void check_lidar(const geometry::LidarPattern& p, double range) {
   if (p.beams < 1 || p.azimuth_steps < 1 || !std::isfinite(p.min_elevation_deg) ||
       !std::isfinite(p.max_elevation_deg) || p.min_elevation_deg > p.max_elevation_deg ||
       p.min_elevation_deg < -90 || p.max_elevation_deg > 90)
     throw std::invalid_argument(
         "LiDAR: expected beams >= 1, azimuth steps >= 1 and -90 <= min <= max <= 90 degrees of "
         "elevation");
-  if (!(lidar_range > 0) || !std::isfinite(lidar_range))
+  if (!(range > 0) || !std::isfinite(range))
     throw std::invalid_argument("LiDAR range: expected a positive number of metres");
 }
 
@@ -130,8 +139,7 @@ KittiRawDriveSummary write_kitti_raw_drive(const std::string& root,
   lidar_render.shadows = false;
   lidar_render.ambient_occlusion = false;
   lidar_render.max_distance = options.lidar_range;
-  const at::Tensor camera_from_velodyne =
-      at::tensor(at::ArrayRef<double>(kCameraFromVelodyne, 9)).view({3, 3});
+  const at::Tensor camera_from_velodyne = camera_from_velodyne_axes();
 
   KittiRawDriveSummary summary;
   double density_sum = 0;

@@ -18,6 +18,8 @@
 // (beams - 1) and azimuth 2π·k / azimuth_steps for every k (a full revolution; the reader keeps
 // what lies in front of the camera); a beam without a surface within `lidar_range` returns
 // nothing. Sweeps are float32 x, y, z, reflectance (0.5 for every return).
+#include <ATen/core/Tensor.h>
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -51,6 +53,17 @@ struct KittiRawDriveSummary {
   int64_t returns = 0;                                 // LiDAR points written, all sweeps
   double label_density = 0.0;  // the mean share of image pixels that get a label
 };
+
+// The camera frame (x right, y down, z forward) from KITTI's Velodyne frame (x forward, y left,
+// z up): (3, 3) float64.
+at::Tensor camera_from_velodyne_axes();
+
+// The beams' unit directions (beams, azimuth_steps, 3) float64 in the LiDAR's own frame (the
+// Velodyne's: x forward, y left, z up), by the pattern of the top.
+at::Tensor lidar_beam_directions(const geometry::LidarPattern& pattern);
+
+// std::invalid_argument, one line, for a pattern or range no LiDAR has.
+void check_lidar(const geometry::LidarPattern& pattern, double range);
 
 // Writes the root `root` (a folder that must not exist or be empty): whole or not at all (it is
 // written into a staging folder and renamed into place). std::invalid_argument for bad options

@@ -1,0 +1,203 @@
+// predict::reconcile_overlap_scales (the overlap rule of `predict --rig`) in closed form: cameras
+// inside a sphere, whose distance along any ray is known exactly, with their distances
+// multiplied by known wrong factors. The rule must bring the overlapping cameras to one scale
+// (a fisheye beyond 180 degrees and a panorama among them), leave a camera that overlaps nothing
+// alone, keep a LiDAR-aligned camera fixed as the anchor, and report no residual where nothing
+// overlaps.
+#include <ATen/ATen.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "omnipoint/camera/camera.h"
+#include "omnipoint/predict/rig_overlap.h"
+#include "predict/rig_poses.h"
+#include "support/expect_error.h"
+
+namespace omnipoint::predict {
+namespace {
+
+using test_rig::pose;
+using test_rig::rotation_x;
+using test_rig::rotation_y;
+
+// The sphere: centre and radius in the body frame.
+const std::vector<double> kCentre = {0.4, -0.3, 0.6};
+constexpr double kRadius = 6.0;
+
+struct Mount {
+  std::string spec;
+  at::Tensor body_from_camera;
+};
+
+const std::map<std::string, Mount>& mounts() {
+  static const std::map<std::string, Mount> all = {
+      {"front", {"PINHOLE 64 48 40 40 32 24", pose(rotation_x(-0.1), {0.0, 0.05, 0.5})}},
+      {"front_right",  // a pinhole turned 40 degrees: half its view is front's
+       {"PINHOLE 64 48 40 40 32 24", pose(rotation_y(0.7), {0.4, 0.0, 0.3})}},
+      {"left",  // beyond 180 degrees
+       {"MEI 48 48 24 24 24 24 1.35 0 0 0 0", pose(rotation_y(-M_PI / 2), {-0.5, 0.0, 0.0})}},
+      {"top", {"EQUIRECTANGULAR 64 32", pose(rotation_y(0.3), {0.0, -0.6, 0.1})}},
+      {"back", {"PINHOLE 48 36 40 40 24 18", pose(rotation_y(M_PI), {0.0, 0.0, -0.5})}},
+  };
+  return all;
+}
+
+// A camera of the mounts seeing the sphere, its distances times `factor`.
+OverlapCamera view(const std::string& name, double factor = 1, bool anchored = false) {
+  const Mount& mount = mounts().at(name);
+  const camera::Camera camera = camera::parse_camera(mount.spec);
+  const camera::Rays rays = camera.ray_map(at::kDouble);
+  const at::Tensor rotation = mount.body_from_camera.slice(0, 0, 3).slice(1, 0, 3);
+  const at::Tensor origin = mount.body_from_camera.slice(0, 0, 3).select(1, 3);
+  // |o + t r - c| = R: t = -(o - c).r + sqrt(((o - c).r)^2 - |o - c|^2 + R^2).
+  const at::Tensor offset = origin - at::tensor(kCentre, at::kDouble);
+  const at::Tensor along = rays.rays.matmul(rotation.t()).matmul(offset);
+  const at::Tensor distance =
+      -along + (along * along - offset.dot(offset) + kRadius * kRadius).sqrt();
+  return {camera,
+          mount.body_from_camera,
+          rays.rays.to(at::kFloat),
+          (distance * factor * rays.valid).to(at::kFloat),
+          rays.valid,
+          factor,
+          anchored};
+}
+
+TEST(RigOverlap, BringsWronglyScaledCamerasToOneScale) {
+  const std::vector<std::string> names = {"front", "front_right", "left", "top"};
+  // Their median (of the middle two) is 1: the rule's level (the median correction is 1) is the
+  // true scale. (At another common level the cameras would not quite agree: the baselines
+  // between them do not scale with the distances.)
+  const std::vector<double> wrong = {0.8, 1.0 / 0.9, 0.9, 1.6};
+  std::vector<OverlapCamera> cameras;
+  for (size_t c = 0; c < names.size(); ++c) cameras.push_back(view(names[c], wrong[c]));
+  // Before: the pairs disagree by their factors.
+  const OverlapResult before = measure_overlaps(cameras);
+  ASSERT_TRUE(before.residual);
+  EXPECT_GT(*before.residual, 0.1);
+
+  const OverlapResult result = reconcile_overlap_scales(cameras);
+  ASSERT_TRUE(result.residual);
+  EXPECT_LT(*result.residual, 1e-3);
+  EXPECT_GE(result.pairs.size(), 6u);
+  // Every camera's final scale (its wrong factor times the correction) is one common scale: the
+  // median of the corrections is 1 (no anchor), so the common scale is the wrong factors'
+  // median, 1.
+  const double common = 1.0;
+  for (size_t c = 0; c < names.size(); ++c) {
+    SCOPED_TRACE(names[c]);
+    EXPECT_TRUE(result.reconciled[c]);
+    EXPECT_EQ(result.group[c], result.group[0]);
+    EXPECT_NEAR(wrong[c] * result.factors[c] / common, 1.0, 1e-3);
+    std::printf("%s: wrong %.3f, corrected to %.6f\n", names[c].c_str(), wrong[c],
+                wrong[c] * result.factors[c]);
+  }
+  // Each pair agrees to the chord of the sphere across a pixel: the panorama's pixels (5.6
+  // degrees) read its pairs ~1e-3 short, the truth's too (TheTruthIsLeftAsItIs prints them).
+  for (const OverlapPair& pair : result.pairs) {
+    EXPECT_GE(pair.inliers, kOverlapMinPixels);
+    EXPECT_NEAR(pair.log_ratio, 0.0, 2e-3);
+  }
+  std::printf("residual before %.4f, after %.2e\n", *before.residual, *result.residual);
+}
+
+TEST(RigOverlap, TheTruthIsLeftAsItIs) {
+  std::vector<OverlapCamera> cameras;
+  for (const char* name : {"front", "front_right", "left", "top", "back"})
+    cameras.push_back(view(name));
+  const OverlapResult result = reconcile_overlap_scales(cameras);
+  ASSERT_TRUE(result.residual);
+  EXPECT_LT(*result.residual, 1e-3);
+  for (size_t c = 0; c < cameras.size(); ++c) EXPECT_NEAR(result.factors[c], 1.0, 1e-3);
+  for (const OverlapPair& pair : result.pairs)
+    std::printf("%zu sees %zu: %lld pixels, %lld inliers, log ratio %.2e, residual %.2e\n", pair.i,
+                pair.j, static_cast<long long>(pair.pixels), static_cast<long long>(pair.inliers),
+                pair.log_ratio, pair.residual);
+  // The panorama sees every other camera's points.
+  for (size_t j = 0; j < cameras.size(); ++j) {
+    if (j == 3) continue;
+    bool found = false;
+    for (const OverlapPair& pair : result.pairs) found = found || (pair.i == 3 && pair.j == j);
+    EXPECT_TRUE(found) << j;
+  }
+}
+
+TEST(RigOverlap, CamerasThatOverlapNothingAreLeftAlone) {
+  // front and back look away from each other: nothing to reconcile, no residual.
+  const OverlapResult none = reconcile_overlap_scales({view("front", 0.8), view("back", 1.3)});
+  EXPECT_FALSE(none.residual);
+  EXPECT_TRUE(none.pairs.empty());
+  EXPECT_EQ(none.factors, (std::vector<double>{1.0, 1.0}));
+  EXPECT_EQ(none.reconciled, (std::vector<bool>{false, false}));
+  EXPECT_EQ(none.group, (std::vector<int>{-1, -1}));
+  // With a third camera overlapping front, back is still alone.
+  const OverlapResult some = reconcile_overlap_scales(
+      {view("front", 0.8), view("back", 1.3), view("front_right", 1.0 / 0.8)});
+  ASSERT_TRUE(some.residual);
+  EXPECT_EQ(some.reconciled, (std::vector<bool>{true, false, true}));
+  EXPECT_EQ(some.group[1], -1);
+  EXPECT_EQ(some.factors[1], 1.0);
+  // Two cameras: the median of the corrections is 1 -> the geometric mean of their scales, 1.
+  EXPECT_NEAR(0.8 * some.factors[0], 1.0, 1e-3);
+  EXPECT_NEAR(some.factors[2] / 0.8, 1.0, 1e-3);
+  // A larger minimum than the overlap has: the pair does not count.
+  OverlapOptions strict;
+  strict.min_pixels = 64 * 48;
+  EXPECT_FALSE(
+      reconcile_overlap_scales({view("front", 0.8), view("front_right", 1.2)}, strict).residual);
+}
+
+TEST(RigOverlap, LidarAlignedCamerasAreAnchors) {
+  // top was aligned to a sweep (its scale is right): the others come to it, it does not move.
+  const OverlapResult result = reconcile_overlap_scales(
+      {view("front", 0.7), view("top", 1.0, true), view("left", 1.4), view("back", 1.2)});
+  ASSERT_TRUE(result.residual);
+  EXPECT_LT(*result.residual, 1e-3);
+  EXPECT_EQ(result.factors[1], 1.0);
+  EXPECT_FALSE(result.reconciled[1]);
+  EXPECT_NEAR(0.7 * result.factors[0], 1.0, 1e-3);
+  EXPECT_NEAR(1.4 * result.factors[2], 1.0, 1e-3);
+  EXPECT_NEAR(1.2 * result.factors[3], 1.0, 1e-3);
+  // Without an anchor in their group, cameras are levelled to free_group_scale when given (the
+  // median of the corrections being 1 would give sqrt(1.4 * 1.8)).
+  OverlapOptions level;
+  level.free_group_scale = 1.0;
+  // (view() gives each camera its factor as its scale so far: the scale its distances are at.)
+  const OverlapResult free =
+      reconcile_overlap_scales({view("front", 1.4), view("front_right", 1.8)}, level);
+  EXPECT_NEAR(1.4 * free.factors[0], 1.0, 1e-3);
+  EXPECT_NEAR(1.8 * free.factors[1], 1.0, 1e-3);
+}
+
+TEST(RigOverlap, ForegroundThatOneCameraSeesDropsOut) {
+  // front's view of the right edge of the wall is blocked at a quarter of the way by an object
+  // (its distances there are a quarter): front_right's points behind it are not front's surface.
+  OverlapCamera front = view("front", 0.8);
+  front.distance.slice(1, 56, 64).mul_(0.25);
+  const OverlapResult result = reconcile_overlap_scales({front, view("front_right", 1.0 / 0.8)});
+  ASSERT_TRUE(result.residual);
+  EXPECT_NEAR(0.8 * result.factors[0], 1.0, 1e-3);
+  EXPECT_NEAR(result.factors[1] / 0.8, 1.0, 1e-3);
+}
+
+TEST(RigOverlap, BadInputIsOneError) {
+  OverlapCamera camera = view("front");
+  camera.distance = camera.distance.slice(0, 0, 10);
+  test::expect_error<std::invalid_argument>([&] { reconcile_overlap_scales({camera}); },
+                                            {"overlap", "(H, W)"});
+  OverlapOptions options;
+  options.band = 0;
+  test::expect_error<std::invalid_argument>([&] { options.Check(); }, {"band"});
+  options = {};
+  options.min_pixels = 0;
+  test::expect_error<std::invalid_argument>([&] { options.Check(); }, {"min_pixels"});
+}
+
+}  // namespace
+}  // namespace omnipoint::predict
