@@ -17,6 +17,7 @@
 #include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
+#include "omnipoint/data/synth/camera_path.h"
 #include "omnipoint/data/synth/kitti_raw_drive.h"
 #include "omnipoint/data/synth/synthesize.h"
 #include "omnipoint/io/atomic_file.h"
@@ -41,6 +42,9 @@ struct SynthArgs {
   std::string shard_text = "0/1";
   std::array<int64_t, 2> shard{0, 1};
   int threads = 0;  // 0: every core
+  // --path: a camera path through one scene (data/synth/camera_path.h).
+  bool path = false;
+  double path_step = 0.05, path_yaw_deg = 1.0;
 };
 
 data::synth::SynthOptions synth_options(const SynthArgs& args) {
@@ -116,6 +120,27 @@ void render_kitti_raw(const SynthArgs& args) {
             << " % of the pixels labelled, in " << seconds << " s\n";
 }
 
+// --count frames of a camera path through the scene of --scene and --seed.
+void render_camera_path(const SynthArgs& args) {
+  data::synth::CameraPathOptions options;
+  if (!args.camera.empty()) options.camera = io::read_camera(args.camera);
+  options.scene = data::synth::parse_scene_kind(args.scene);
+  options.seed = args.seed;
+  options.frames = args.count;
+  options.step = args.path_step;
+  options.yaw_step_deg = args.path_yaw_deg;
+  options.synth = synth_options(args);
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<std::string> frames = data::synth::write_camera_path(args.out, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << args.out << "\n";
+  std::cerr << "synth: camera path " << args.out << ": " << frames.size() << " frames of "
+            << args.scene << " scene " << args.seed << " (" << args.out << "/frames for predict "
+            << "--sequence, " << args.out << "/truth for eval --sequence), in " << seconds
+            << " s\n";
+}
+
 // "K/N" with 0 <= K < N.
 std::array<int64_t, 2> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
@@ -130,6 +155,18 @@ std::array<int64_t, 2> parse_shard(const std::string& text) {
   } catch (const std::exception&) {
   }
   throw std::invalid_argument("--shard " + text + ": expected K/N with 0 <= K < N");
+}
+
+void add_camera_path_options(CLI::App* cmd, SynthArgs& args) {
+  cmd->add_flag("--path", args.path,
+                "write a camera path through one scene (--scene, --seed): --count frames moving "
+                "--path-step metres forward and turning --path-yaw degrees per frame, as "
+                "OUT/frames/*.png (predict --sequence) and OUT/truth/<frame>/ (samples with "
+                "their poses; eval --sequence) (default camera PINHOLE 128 96 80 80 64 48)");
+  cmd->add_option("--path-step", args.path_step, "--path: metres per frame along the view")
+      ->capture_default_str();
+  cmd->add_option("--path-yaw", args.path_yaw_deg, "--path: degrees per frame, turning left")
+      ->capture_default_str();
 }
 
 }  // namespace
@@ -178,9 +215,16 @@ void add_synth_command(CLI::App& app) {
                   "--kitti-raw: firings per revolution")
       ->capture_default_str();
   cmd->add_option("--lidar-range", args->lidar_range, "--kitti-raw: metres")->capture_default_str();
+  add_camera_path_options(cmd, *args);
   add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
     use_threads(args->threads);
+    if (args->path) {
+      if (!args->benchmark.empty() || args->kitti_raw)
+        throw std::invalid_argument("--path: not with --benchmark or --kitti-raw");
+      render_camera_path(*args);
+      return;
+    }
     if (args->kitti_raw) {
       if (!args->benchmark.empty())
         throw std::invalid_argument("--kitti-raw and --benchmark: choose one");
