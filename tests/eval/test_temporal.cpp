@@ -54,7 +54,7 @@ TEST(TemporalStability, GroundTruthGivesZero) {
   ASSERT_EQ(stability.pairs.size(), 2u);
   for (const PairStability& pair : stability.pairs) {
     EXPECT_GT(pair.pixels, 64 * 48 / 2);  // most of frame t lands in frame t+1
-    EXPECT_LT(pair.error, 1e-4);           // the bilinear sampling of a curved map only
+    EXPECT_LT(pair.error, 1e-4);          // the bilinear sampling of a curved map only
   }
   EXPECT_LT(stability.error, 1e-4);
 }
@@ -67,8 +67,8 @@ TEST(TemporalStability, AScaleJumpGivesItsSize) {
   second.points = second.points * 1.1;  // frame 1's scale jumps by 10 %, frame 2's is right
   const TemporalStability stability = temporal_stability({first, second, third}, kCamera);
   ASSERT_EQ(stability.pairs.size(), 2u);
-  EXPECT_NEAR(stability.pairs[0].error, 0.1, 1e-3);            // |1.1 - 1|
-  EXPECT_NEAR(stability.pairs[1].error, 1 - 1 / 1.1, 1e-3);    // |1/1.1 - 1|
+  EXPECT_NEAR(stability.pairs[0].error, 0.1, 1e-3);          // |1.1 - 1|
+  EXPECT_NEAR(stability.pairs[1].error, 1 - 1 / 1.1, 1e-3);  // |1/1.1 - 1|
   EXPECT_NEAR(stability.error, (0.1 + (1 - 1 / 1.1)) / 2, 1e-3);
 }
 
@@ -79,8 +79,8 @@ TEST(TemporalStability, NoOverlapIsNaNAndLeftOutOfTheMean) {
   const PairStability pair = temporal_pair_stability(first, away, kCamera);
   EXPECT_EQ(pair.pixels, 0);
   EXPECT_TRUE(std::isnan(pair.error));
-  const TemporalStability stability = temporal_stability(
-      {first, plane_frame(kCamera, pose(2, 0.1, 0, 0.2))}, kCamera);
+  const TemporalStability stability =
+      temporal_stability({first, plane_frame(kCamera, pose(2, 0.1, 0, 0.2))}, kCamera);
   EXPECT_LT(stability.error, 1e-4);
 }
 
@@ -121,10 +121,10 @@ TEST(TemporalStability, RenderedPathGroundTruthScoresZero) {
       data::synth::read_camera_path((dir / "path").string());
   ASSERT_EQ(path.size(), 3u);
   // The poses: the path moves 0.1 m per frame.
-  const double moved = at::linalg_vector_norm(path[1].world_from_camera.select(1, 3) -
-                                                  path[0].world_from_camera.select(1, 3),
-                                              2, {0})
-                           .item<double>();
+  const double moved =
+      at::linalg_vector_norm(
+          path[1].world_from_camera.select(1, 3) - path[0].world_from_camera.select(1, 3), 2, {0})
+          .item<double>();
   EXPECT_NEAR(moved, 0.1, 1e-9);
   const TemporalStability stability =
       score_predicted_sequence((dir / "predicted").string(), (dir / "path").string());

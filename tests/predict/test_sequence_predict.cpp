@@ -5,9 +5,10 @@
 // exactly; the running scale's rules in closed form; bad inputs one line each, nothing written.
 #include <ATen/ATen.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <sys/stat.h>
+#include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -56,8 +57,8 @@ TEST(SequenceScale, SmoothFollowsItsDefinition) {
   EXPECT_NEAR(smooth.next(2.0), 2.0, 1e-12);
   // An outlier x 3 is clipped to the window's median + kSmoothClip and moves the estimate by
   // kSmoothGain of that.
-  const double expected = std::exp(std::log(2.0) + SequenceScale::kSmoothGain *
-                                                       SequenceScale::kSmoothClip);
+  const double expected =
+      std::exp(std::log(2.0) + SequenceScale::kSmoothGain * SequenceScale::kSmoothClip);
   EXPECT_NEAR(smooth.next(6.0), expected, 1e-12);
   // A small step is followed by kSmoothGain of it per frame (no clipping within the band).
   SequenceScale step(ScaleMode::kSmooth);
@@ -183,7 +184,12 @@ TEST_F(SequencePredict, SmoothIsSteadierThanPerFrame) {
 TEST_F(SequencePredict, FixedAppliesOneScale) {
   Recorder report;
   const SequencePredictJobSummary fixed = run(ScaleMode::kFixed, "fixed", smooth_.camera, &report);
-  EXPECT_GT(fixed.fixed_scale, 0);
+  // The median of the first frames' network scales with the same camera: the smooth run's.
+  std::vector<double> first;
+  for (const char* name : {"000000", "000001", "000002", "000003"})
+    first.push_back(sequence_record(dir_ / "smooth" / name).at("network_metric_scale"));
+  std::sort(first.begin(), first.end());
+  EXPECT_NEAR(fixed.fixed_scale, (first[1] + first[2]) / 2, 1e-6 * fixed.fixed_scale);
   for (const auto& entry : fs::directory_iterator(dir_ / "fixed"))
     EXPECT_DOUBLE_EQ(sequence_record(entry.path()).at("metric_scale").get<double>(),
                      fixed.fixed_scale);
@@ -213,19 +219,21 @@ TEST_F(SequencePredict, CalibratedCameraMatchesSingleFrameFits) {
     const double angle = (at::acos(cosine.index({both})) * (180.0 / M_PI)).mean().item<double>();
     const double own = p.fit_residual->mean_deg;
     const double joint = camera::angular_residual(calibrated, p.rays, p.mask).mean_deg;
-    std::printf("frame %lld: fit %s hfov %.2f deg, its rays %.3f deg from the calibrated camera's;"
-                " residual to the predicted rays: own fit %.3f deg, calibrated %.3f deg\n",
-                static_cast<long long>(i), p.fitted_camera->model_name().c_str(),
-                camera::field_of_view(*p.fitted_camera).horizontal_deg, angle, own, joint);
+    std::printf(
+        "frame %lld: fit %s hfov %.2f deg, its rays %.3f deg from the calibrated camera's;"
+        " residual to the predicted rays: own fit %.3f deg, calibrated %.3f deg\n",
+        static_cast<long long>(i), p.fitted_camera->model_name().c_str(),
+        camera::field_of_view(*p.fitted_camera).horizontal_deg, angle, own, joint);
     ray_angle_sum += angle;
     own_residual_sum += own;
     calibrated_residual_sum += joint;
   }
   const double n = static_cast<double>(kCalibrationFrames);
-  std::printf("calibrated %s hfov %.2f deg: rays %.3f deg from the single-frame fits' on average; "
-              "mean residual %.3f deg (own fits %.3f deg)\n",
-              calibrated.model_name().c_str(), camera::field_of_view(calibrated).horizontal_deg,
-              ray_angle_sum / n, calibrated_residual_sum / n, own_residual_sum / n);
+  std::printf(
+      "calibrated %s hfov %.2f deg: rays %.3f deg from the single-frame fits' on average; "
+      "mean residual %.3f deg (own fits %.3f deg)\n",
+      calibrated.model_name().c_str(), camera::field_of_view(calibrated).horizontal_deg,
+      ray_angle_sum / n, calibrated_residual_sum / n, own_residual_sum / n);
   int most = 0;
   for (const auto& [name, count] : models) most = std::max(most, count);
   EXPECT_EQ(models[calibrated.model_name()], most);
@@ -245,8 +253,8 @@ TEST_F(SequencePredict, ResumesWithoutRedoingFinishedFrames) {
     if (!entry.is_regular_file()) continue;
     struct stat info {};
     ASSERT_EQ(::stat(entry.path().c_str(), &info), 0);
-    stamps[entry.path().string()] = {info.st_ino, info.st_mtim.tv_sec * 1000000000LL +
-                                                       info.st_mtim.tv_nsec};
+    stamps[entry.path().string()] = {info.st_ino,
+                                     info.st_mtim.tv_sec * 1000000000LL + info.st_mtim.tv_nsec};
   }
   for (int64_t i = kKept; i < kFrames; ++i) {
     char name[16];
@@ -301,8 +309,8 @@ struct CliRun {
 
 CliRun run_cli(const fs::path& dir, const std::string& args) {
   const fs::path err = dir / "stderr.txt";
-  const std::string command = "cd '" + dir.string() + "' && '" + std::string(OMNIPOINT_CLI) +
-                              "' " + args + " > /dev/null 2> '" + err.string() + "'";
+  const std::string command = "cd '" + dir.string() + "' && '" + std::string(OMNIPOINT_CLI) + "' " +
+                              args + " > /dev/null 2> '" + err.string() + "'";
   const int status = std::system(command.c_str());
   std::ifstream in(err);
   std::stringstream text;
@@ -326,7 +334,8 @@ TEST(SequencePredictCli, BadInputsOneLineEach) {
   fs::create_directories(dir / "frames");
   io::write_image_png((dir / "frames" / "a.png").string(), at::zeros({8, 8, 3}, at::kByte));
   for (const std::string& args :
-       {std::string("predict --sequence missing --out out"), std::string("predict --sequence empty --out out"),
+       {std::string("predict --sequence missing --out out"),
+        std::string("predict --sequence empty --out out"),
         std::string("predict --sequence frames --calibration-frames 0 --out out"),
         std::string("predict --sequence frames --rig rig.json --out out"),
         std::string("predict --sequence frames --scale median --out out"),

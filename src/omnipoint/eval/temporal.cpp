@@ -18,9 +18,8 @@ namespace {
 
 void check_frame(const SequenceFrame& frame, const camera::Camera& camera) {
   const int64_t height = camera.height(), width = camera.width();
-  if (frame.points.dim() != 3 || frame.points.size(0) != height ||
-      frame.points.size(1) != width || frame.points.size(2) != 3 ||
-      frame.mask.sizes() != frame.points.sizes().slice(0, 2) ||
+  if (frame.points.dim() != 3 || frame.points.size(0) != height || frame.points.size(1) != width ||
+      frame.points.size(2) != 3 || frame.mask.sizes() != frame.points.sizes().slice(0, 2) ||
       frame.world_from_camera.dim() != 2 || frame.world_from_camera.size(0) != 4 ||
       frame.world_from_camera.size(1) != 4)
     throw std::invalid_argument("temporal stability: expected points (" + std::to_string(height) +
@@ -40,16 +39,17 @@ PairStability temporal_pair_stability(const SequenceFrame& from, const SequenceF
   const at::Tensor mask_from = from.mask.to(at::kCPU, at::kBool);
   const at::Tensor points = f64(from.points).index({mask_from});  // (N, 3)
   // Frame t's points in frame t+1's camera frame.
-  const at::Tensor to_from = at::matmul(at::inverse(f64(to.world_from_camera)),
-                                        f64(from.world_from_camera));
-  const at::Tensor carried =
-      at::matmul(points, to_from.slice(0, 0, 3).slice(1, 0, 3).t()) + to_from.slice(0, 0, 3).select(1, 3);
+  const at::Tensor to_from =
+      at::matmul(at::inverse(f64(to.world_from_camera)), f64(from.world_from_camera));
+  const at::Tensor carried = at::matmul(points, to_from.slice(0, 0, 3).slice(1, 0, 3).t()) +
+                             to_from.slice(0, 0, 3).select(1, 3);
   const camera::Pixels projected = camera.project(carried);
   // Bilinear corners: pixel centres are at i + 0.5.
-  const at::Tensor x = projected.pixels.select(-1, 0) - 0.5, y = projected.pixels.select(-1, 1) - 0.5;
+  const at::Tensor x = projected.pixels.select(-1, 0) - 0.5,
+                   y = projected.pixels.select(-1, 1) - 0.5;
   const at::Tensor x0 = at::floor(x), y0 = at::floor(y);
-  at::Tensor usable = projected.valid & (x0 >= 0) & (y0 >= 0) & (x0 + 1 <= width - 1) &
-                      (y0 + 1 <= height - 1);
+  at::Tensor usable =
+      projected.valid & (x0 >= 0) & (y0 >= 0) & (x0 + 1 <= width - 1) & (y0 + 1 <= height - 1);
   const at::Tensor index = usable.nonzero().squeeze(1);
   PairStability pair;
   pair.pixels = 0;
@@ -76,8 +76,7 @@ PairStability temporal_pair_stability(const SequenceFrame& from, const SequenceF
   const at::Tensor carried_distance =
       at::linalg_vector_norm(carried.index_select(0, index), 2, {-1});
   const at::Tensor kept = corners_valid & (carried_distance > 0);
-  const at::Tensor relative =
-      ((sampled - carried_distance).abs() / carried_distance).index({kept});
+  const at::Tensor relative = ((sampled - carried_distance).abs() / carried_distance).index({kept});
   pair.pixels = relative.numel();
   if (pair.pixels > 0) pair.error = relative.median().item<double>();
   return pair;
@@ -94,8 +93,8 @@ TemporalStability temporal_stability(const std::vector<SequenceFrame>& frames,
     sum += stability.pairs.back().error;
     ++scored;
   }
-  stability.error = scored == 0 ? std::numeric_limits<double>::quiet_NaN()
-                                : sum / static_cast<double>(scored);
+  stability.error =
+      scored == 0 ? std::numeric_limits<double>::quiet_NaN() : sum / static_cast<double>(scored);
   return stability;
 }
 
@@ -105,7 +104,8 @@ TemporalStability score_predicted_sequence(const std::string& predictions,
   std::vector<SequenceFrame> frames;
   std::optional<camera::Camera> camera;
   for (const data::synth::CameraPathFrame& frame : path) {
-    const std::filesystem::path file = std::filesystem::path(predictions) / frame.name / "points.npy";
+    const std::filesystem::path file =
+        std::filesystem::path(predictions) / frame.name / "points.npy";
     if (!std::filesystem::is_regular_file(file))
       throw std::invalid_argument(file.string() + ": no predicted points for frame " + frame.name +
                                   " of " + truth);

@@ -54,10 +54,9 @@ std::optional<FinishedFrame> finished_frame(const fs::path& folder, ScaleMode mo
   }
   const std::string recorded = record.value("scale_mode", "");
   if (recorded != scale_mode_name(mode))
-    throw std::invalid_argument("--out " + folder.parent_path().string() +
-                                " holds frames of a --scale " + recorded + " run (" +
-                                file.string() + "): rerun with --scale " + recorded +
-                                " or use another --out");
+    throw std::invalid_argument(
+        "--out " + folder.parent_path().string() + " holds frames of a --scale " + recorded +
+        " run (" + file.string() + "): rerun with --scale " + recorded + " or use another --out");
   FinishedFrame frame;
   frame.camera_json = file;
   frame.network_scale = record.at("network_metric_scale").get<double>();
@@ -87,7 +86,11 @@ class SequenceRun {
     return item;
   }
   void find_finished_frames();
-  void calibrate();
+  size_t calibration_count() const {
+    return std::min(list_.images.size(), static_cast<size_t>(options_.calibration_frames));
+  }
+  void calibrate_camera();
+  void measure_fixed_scale();
   void predict_frame(size_t index, const DecodedImage& decoded, SequenceScale& scale);
 
   const SequencePredictJobOptions& options_;
@@ -103,28 +106,23 @@ class SequenceRun {
 
 void SequenceRun::find_finished_frames() {
   for (size_t i = 0; i < list_.images.size(); ++i)
-    if (auto frame = finished_frame(fs::path(options_.output_dir) / list_.images[i].output,
-                                    options_.scale))
+    if (auto frame =
+            finished_frame(fs::path(options_.output_dir) / list_.images[i].output, options_.scale))
       finished_.emplace(i, std::move(*frame));
 }
 
-// The camera (without a given one) and the fixed scale (--scale fixed) from the first frames.
-void SequenceRun::calibrate() {
-  const size_t count =
-      std::min(list_.images.size(), static_cast<size_t>(options_.calibration_frames));
+// The camera (without a given one) from the first frames: their automatic fits vote.
+void SequenceRun::calibrate_camera() {
   std::vector<at::Tensor> rays, valid;
-  std::vector<double> network_scales;
   std::vector<camera::Camera> fits;  // each frame's automatic fit, in frame order
   std::optional<camera::ImageSize> size;
   std::string errors;
-  for (size_t i = 0; i < count; ++i) {
+  for (size_t i = 0; i < calibration_count(); ++i) {
     try {
       const DecodedImage decoded = decode(i);
       PredictOptions item = predict_options();
-      item.fit_model = camera_ ? "" : "auto";
+      item.fit_model = "auto";
       const Prediction p = model_->predict(decoded.image, item);
-      network_scales.push_back(p.metric_scale);
-      if (camera_) continue;
       if (!p.fitted_camera) throw std::runtime_error("no camera fitted: " + p.fit_error);
       if (size && (size->width != decoded.size.width || size->height != decoded.size.height))
         throw std::invalid_argument("--sequence: the calibration frames differ in size (" +
@@ -140,11 +138,9 @@ void SequenceRun::calibrate() {
       errors += "; " + list_.images[i].path.string() + ": " + e.what();
     }
   }
-  if (network_scales.empty())
-    throw std::runtime_error("--sequence: none of the " + std::to_string(count) +
+  if (fits.empty())
+    throw std::runtime_error("--sequence: none of the " + std::to_string(calibration_count()) +
                              " calibration frame(s) could be predicted" + errors);
-  fixed_scale_ = median(network_scales);
-  if (camera_) return;
   std::map<std::string, int> count_of;
   for (const camera::Camera& fit : fits) ++count_of[fit.model_name()];
   const camera::Camera* first_chosen = &fits.front();  // the first fit of the most chosen model
@@ -159,6 +155,25 @@ void SequenceRun::calibrate() {
                    " (chosen by the automatic fit for " + std::to_string(count_of[chosen]) +
                    " of them), fitted to all their rays, residual " +
                    std::to_string(fit.residual.median_deg) + " deg median";
+}
+
+// --scale fixed: the median of the first frames' network scales, predicted with the camera.
+void SequenceRun::measure_fixed_scale() {
+  std::vector<double> network_scales;
+  std::string errors;
+  for (size_t i = 0; i < calibration_count(); ++i) {
+    try {
+      PredictOptions item = predict_options();
+      item.fit_model = "";
+      network_scales.push_back(model_->predict(decode(i).image, item).metric_scale);
+    } catch (const std::exception& e) {
+      errors += "; " + list_.images[i].path.string() + ": " + e.what();
+    }
+  }
+  if (network_scales.empty())
+    throw std::runtime_error("--sequence: none of the " + std::to_string(calibration_count()) +
+                             " calibration frame(s) could be predicted" + errors);
+  fixed_scale_ = median(network_scales);
 }
 
 void SequenceRun::predict_frame(size_t index, const DecodedImage& decoded, SequenceScale& scale) {
@@ -176,15 +191,14 @@ void SequenceRun::predict_frame(size_t index, const DecodedImage& decoded, Seque
   apply_metric_scale(predicted.prediction, applied);
   OutputOptions outputs;
   outputs.files = options_.output_files;
-  outputs.camera_json_extra =
-      json{{"sequence",
-            {{"frame_index", index},
-             {"frames", list_.images.size()},
-             {"camera", camera_origin_},
-             {"scale_mode", scale_mode_name(options_.scale)},
-             {"metric_scale", applied},
-             {"network_metric_scale", network_scale}}}}
-          .dump();
+  outputs.camera_json_extra = json{{"sequence",
+                                    {{"frame_index", index},
+                                     {"frames", list_.images.size()},
+                                     {"camera", camera_origin_},
+                                     {"scale_mode", scale_mode_name(options_.scale)},
+                                     {"metric_scale", applied},
+                                     {"network_metric_scale", network_scale}}}}
+                                  .dump();
   predicted.writing_ms =
       write_prediction_outputs(predicted.folder, decoded.image, predicted.prediction, outputs);
   ++summary_.written;
@@ -204,6 +218,7 @@ SequencePredictJobSummary SequenceRun::run() {
   list_ = list_images({options_.frames_dir});
   summary_.frames = static_cast<int64_t>(list_.images.size());
   find_finished_frames();
+  std::string camera_note;  // where a camera read back comes from
   if (!options_.camera.empty()) {
     const DecodedImage first = decode(0);  // the size of a camera file without one
     camera_ = io::read_camera(options_.camera, first.original_size);
@@ -212,6 +227,7 @@ SequencePredictJobSummary SequenceRun::run() {
     const FinishedFrame& first = finished_.begin()->second;
     camera_ = io::read_camera(first.camera_json.string());
     camera_origin_ = first.camera_origin;
+    camera_note = " (read back from " + first.camera_json.string() + ")";
   }
   model_ = Model::load(options_.model_path, options_.device);
 
@@ -219,8 +235,8 @@ SequencePredictJobSummary SequenceRun::run() {
   if (list_.skipped_files > 0)
     observer_.note(std::to_string(list_.skipped_files) +
                    " file(s) in the frames folder are not images and were skipped");
-  const bool need_fixed_scale = options_.scale == ScaleMode::kFixed && finished_.empty();
-  if (!camera_ || need_fixed_scale) calibrate();
+  if (!camera_) calibrate_camera();
+  if (options_.scale == ScaleMode::kFixed && finished_.empty()) measure_fixed_scale();
   if (!finished_.empty()) {
     fixed_scale_ = finished_.begin()->second.metric_scale;
     observer_.note(std::to_string(finished_.size()) + " of " + std::to_string(summary_.frames) +
@@ -231,7 +247,7 @@ SequencePredictJobSummary SequenceRun::run() {
   summary_.camera = camera_->to_spec();
   summary_.camera_origin = camera_origin_;
   if (options_.scale == ScaleMode::kFixed) summary_.fixed_scale = fixed_scale_;
-  observer_.note("camera " + camera_origin_ + ": " + summary_.camera);
+  observer_.note("camera " + camera_origin_ + camera_note + ": " + summary_.camera);
   if (options_.scale == ScaleMode::kFixed)
     observer_.note("--scale fixed: metric scale " + std::to_string(fixed_scale_) +
                    " for every frame");

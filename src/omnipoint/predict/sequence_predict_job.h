@@ -53,7 +53,8 @@ namespace omnipoint::predict {
 
 // `--scale`: how a frame's applied metric scale follows the network's.
 enum class ScaleMode {
-  kFixed,     // one scale for every frame: the calibration frames' median network scale
+  kFixed,     // one scale for every frame: the calibration frames' median network scale (with
+              // the sequence's camera)
   kSmooth,    // a robust running estimate (SequenceScale)
   kPerFrame,  // each frame's own network scale (as `predict` does)
 };
@@ -64,7 +65,8 @@ ScaleMode parse_scale_mode(const std::string& name);
 // The running metric scale of a sequence: next() takes the network's scale of each frame in
 // frame order and returns the scale applied to it.
 //   per-frame  the network's own.
-//   fixed      `fixed_scale`, whatever the frame.
+//   fixed      `fixed_scale`, whatever the frame (the job's: the median network scale of the
+//              first calibration_frames frames predicted with the sequence's camera).
 //   smooth     in log space: a frame's log scale x_t is clipped to within kSmoothClip of the
 //              median of the last kSmoothWindow frames' log scales (its own included), y_t, and
 //              the estimate m_t = m_{t-1} + kSmoothGain (y_t - m_{t-1}), m_0 = y_0 = x_0; the
@@ -92,8 +94,8 @@ class SequenceScale {
 
 struct SequencePredictJobOptions {
   // Inputs.
-  std::string frames_dir;  // FRAMES: the frames, in name order (image_list.h)
-  std::string camera;      // every frame's camera (io::read_camera); "": calibrated
+  std::string frames_dir;          // FRAMES: the frames, in name order (image_list.h)
+  std::string camera;              // every frame's camera (io::read_camera); "": calibrated
   int64_t calibration_frames = 8;  // the first frames the camera (and the fixed scale) come from
   ScaleMode scale = ScaleMode::kSmooth;  // --scale
   bool use_exif = true;                  // apply the frames' EXIF orientation
@@ -105,7 +107,7 @@ struct SequencePredictJobOptions {
   int64_t num_tokens = 0;               // ViT token budget; 0: the model's default
   double edge_rtol = kDefaultEdgeRtol;  // flying-pixel filter tolerance; 0: off
   // Outputs.
-  std::string output_dir = "predictions";  // one folder per frame below it
+  std::string output_dir = "predictions";                       // one folder per frame below it
   std::set<std::string> output_files = default_output_files();  // outputs.h
 
   // std::invalid_argument with one line for an option that is invalid.
@@ -113,13 +115,13 @@ struct SequencePredictJobOptions {
 };
 
 struct SequencePredictJobSummary {
-  int64_t frames = 0;    // found
-  int64_t written = 0;   // predicted and written by this run
-  int64_t resumed = 0;   // finished by an earlier run, not redone
-  int64_t failed = 0;    // skipped on an error
-  int64_t warnings = 0;  // about the frames
+  int64_t frames = 0;         // found
+  int64_t written = 0;        // predicted and written by this run
+  int64_t resumed = 0;        // finished by an earlier run, not redone
+  int64_t failed = 0;         // skipped on an error
+  int64_t warnings = 0;       // about the frames
   std::string camera;         // the camera's spec (MODEL W H PARAMS)
-  std::string camera_origin;  // "given", "calibrated from N frames: ...", "restored from ..."
+  std::string camera_origin;  // "given" or "calibrated from N frames: ..." (also when read back)
   double fixed_scale = 0;     // --scale fixed: the scale of every frame; else 0
 };
 

@@ -60,8 +60,7 @@ std::vector<std::string> write_camera_path(const std::string& root,
                            start.pitch, start.roll);
     const SynthSample sample = render_sample(std::move(moved), options.camera, options.synth);
     const std::string name = frame_name(i);
-    io::write_image_png((staged.path() / "frames" / (name + ".png")).string(),
-                        sample.sample.image);
+    io::write_image_png((staged.path() / "frames" / (name + ".png")).string(), sample.sample.image);
     write_synth_sample((staged.path() / "truth" / name).string(), sample);
     names.push_back(name);
   }
@@ -72,11 +71,13 @@ std::vector<std::string> write_camera_path(const std::string& root,
 std::vector<CameraPathFrame> read_camera_path(const std::string& root) {
   const fs::path truth = fs::path(root) / "truth";
   if (!fs::is_directory(truth))
-    throw std::invalid_argument(root + ": not a camera path (no truth/ folder; `omnipoint synth "
-                                       "--path` writes one)");
+    throw std::invalid_argument(root +
+                                ": not a camera path (no truth/ folder; `omnipoint synth "
+                                "--path` writes one)");
   std::vector<CameraPathFrame> frames;
   for (const auto& entry : fs::directory_iterator(truth))
-    if (entry.is_directory()) frames.push_back({entry.path().filename().string(), entry.path().string(), {}});
+    if (entry.is_directory())
+      frames.push_back({entry.path().filename().string(), entry.path().string(), {}});
   std::sort(frames.begin(), frames.end(),
             [](const CameraPathFrame& a, const CameraPathFrame& b) { return a.name < b.name; });
   for (CameraPathFrame& frame : frames) {
@@ -85,14 +86,13 @@ std::vector<CameraPathFrame> read_camera_path(const std::string& root) {
       const nlohmann::json pose = nlohmann::json::parse(io::read_file(meta)).at("pose");
       at::Tensor matrix = at::eye(4, at::kDouble);
       for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c)
-          matrix[r][c] = pose.at("rotation").at(r).at(c).get<double>();
+        for (int c = 0; c < 3; ++c) matrix[r][c] = pose.at("rotation").at(r).at(c).get<double>();
         matrix[r][3] = pose.at("position").at(r).get<double>();
       }
       frame.world_from_camera = matrix;
     } catch (const nlohmann::json::exception& e) {
-      throw std::invalid_argument(meta + ": no camera pose (\"pose\": rotation, position): " +
-                                  e.what());
+      throw std::invalid_argument(meta +
+                                  ": no camera pose (\"pose\": rotation, position): " + e.what());
     }
   }
   if (frames.size() < 2)

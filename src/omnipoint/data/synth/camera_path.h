@@ -42,9 +42,9 @@ std::vector<std::string> write_camera_path(const std::string& root,
 
 // A written path read back: the frames' truth folders and poses, in frame order.
 struct CameraPathFrame {
-  std::string name;               // NNNNNN
-  std::string truth;              // root/truth/NNNNNN (a sample folder)
-  at::Tensor world_from_camera;   // (4, 4) float64
+  std::string name;              // NNNNNN
+  std::string truth;             // root/truth/NNNNNN (a sample folder)
+  at::Tensor world_from_camera;  // (4, 4) float64
 };
 // std::invalid_argument naming the file for a root that is not a camera path.
 std::vector<CameraPathFrame> read_camera_path(const std::string& root);
