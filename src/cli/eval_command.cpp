@@ -11,6 +11,7 @@
 // With --sequence PREDICTIONS --truth PATH it scores the temporal stability of a predicted
 // sequence instead (eval/temporal.h) and prints it (--out: also OUT/temporal.json).
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cstdio>
 #include <filesystem>
@@ -120,21 +121,19 @@ void run_sequence_eval(const EvalCommandOptions& options) {
     throw std::invalid_argument("--sequence needs --truth (the camera path of `synth --path`)");
   const eval::TemporalStability stability =
       eval::score_predicted_sequence(options.sequence, options.truth);
-  std::string pairs = "[";
+  nlohmann::json pairs = nlohmann::json::array();  // NaN (a pair without overlap) is null
   for (size_t t = 0; t < stability.pairs.size(); ++t) {
     const eval::PairStability& pair = stability.pairs[t];
     std::printf("frames %zu -> %zu: median relative change %.6f over %lld pixels\n", t, t + 1,
                 pair.error, static_cast<long long>(pair.pixels));
-    pairs += std::string(t == 0 ? "" : ", ") + "{\"error\": " + std::to_string(pair.error) +
-             ", \"pixels\": " + std::to_string(pair.pixels) + "}";
+    pairs.push_back(nlohmann::json{{"error", pair.error}, {"pixels", pair.pixels}});
   }
-  pairs += "]";
   std::printf("temporal stability %s: %.6f (mean over %zu frame pairs)\n", options.sequence.c_str(),
               stability.error, stability.pairs.size());
   if (!options.job.output_dir.empty()) {
     std::filesystem::create_directories(options.job.output_dir);
-    const std::string text = "{\"temporal_stability\": " + std::to_string(stability.error) +
-                             ", \"pairs\": " + pairs + "}\n";
+    const std::string text =
+        nlohmann::json{{"temporal_stability", stability.error}, {"pairs", pairs}}.dump(2) + "\n";
     io::write_file_atomically(
         (std::filesystem::path(options.job.output_dir) / "temporal.json").string(),
         [&](std::ostream& out) { out << text; });

@@ -348,5 +348,43 @@ TEST(SequencePredictCli, BadInputsOneLineEach) {
   fs::remove_all(dir);
 }
 
+// The three commands end to end: synth --path, predict --sequence (and its resume), eval
+// --sequence with --out.
+TEST(SequencePredictCli, SynthPredictResumeEval) {
+  const fs::path dir = fs::temp_directory_path() / "omnipoint_sequence_cli_run";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const CliRun synth = run_cli(
+      dir, "synth --path --count 3 --camera 'PINHOLE 48 36 30 30 24 18' --no-ao --out walk");
+  ASSERT_EQ(synth.status, 0) << synth.err;
+  const CliRun first = run_cli(dir,
+                               "predict --sequence walk/frames --calibration-frames 2 --outputs "
+                               "npy,mask --out pred --model " +
+                                   bundled_model());
+  ASSERT_EQ(first.status, 0) << first.err;
+  EXPECT_NE(first.err.find("camera calibrated from 2 frames"), std::string::npos) << first.err;
+  for (const char* name : {"000000", "000001", "000002"})
+    EXPECT_EQ(sequence_record(dir / "pred" / name).at("scale_mode"), "smooth") << name;
+  fs::remove_all(dir / "pred" / "000002");
+  const CliRun again = run_cli(dir,
+                               "predict --sequence walk/frames --calibration-frames 2 --outputs "
+                               "npy,mask --out pred --model " +
+                                   bundled_model());
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_NE(again.err.find("2 of 3 frame(s) finished by an earlier run"), std::string::npos)
+      << again.err;
+  EXPECT_NE(again.err.find("1 written, 2 resumed"), std::string::npos) << again.err;
+  const CliRun eval = run_cli(dir, "eval --sequence pred --truth walk --out scores");
+  ASSERT_EQ(eval.status, 0) << eval.err;
+  const nlohmann::json scores =
+      nlohmann::json::parse(io::read_file((dir / "scores" / "temporal.json").string()));
+  EXPECT_EQ(scores.at("pairs").size(), 2u);
+  EXPECT_GE(scores.at("temporal_stability").get<double>(), 0);
+  const CliRun no_truth = run_cli(dir, "eval --sequence pred");
+  EXPECT_NE(no_truth.status, 0);
+  EXPECT_EQ(error_lines(no_truth.err), 1) << no_truth.err;
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace omnipoint::predict
