@@ -8,7 +8,10 @@
 //   table.json      --suite: the same tables as JSON, with each set's summary
 //   points/         with --save-points: each sample × mode's scored point map (and sparse input)
 // and a progress line with the ETA on stderr; with --suite, a warning line per set not found.
+// With --sequence PREDICTIONS --truth PATH it scores the temporal stability of a predicted
+// sequence instead (eval/temporal.h) and prints it (--out: also OUT/temporal.json).
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cstdio>
 #include <filesystem>
@@ -25,6 +28,8 @@
 #include "cli/eval_rig.h"
 #include "cli/threads.h"
 #include "omnipoint/eval/eval_job.h"
+#include "omnipoint/eval/temporal.h"
+#include "omnipoint/io/atomic_file.h"
 
 namespace omnipoint::cli {
 namespace {
@@ -37,6 +42,8 @@ struct EvalCommandOptions {
   std::vector<std::string> format_options;  // --option NAME=VALUE
   bool moge_relative = false;               // MoGe benchmark depth is not metric
   int threads = 0;                          // 0: every core
+  std::string sequence;                     // --sequence: a predicted sequence's folder
+  std::string truth;                        // --truth: its camera path (synth --path)
 };
 
 // --sparse-depth takes an optional count (1,000, the paper's, when given without one).
@@ -109,6 +116,31 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
   std::cout << result.table;
 }
 
+// --sequence: the temporal stability of a predicted sequence against its camera path.
+void run_sequence_eval(const EvalCommandOptions& options) {
+  if (options.truth.empty())
+    throw std::invalid_argument("--sequence needs --truth (the camera path of `synth --path`)");
+  const eval::TemporalStability stability =
+      eval::score_predicted_sequence(options.sequence, options.truth);
+  nlohmann::json pairs = nlohmann::json::array();  // NaN (a pair without overlap) is null
+  for (size_t t = 0; t < stability.pairs.size(); ++t) {
+    const eval::PairStability& pair = stability.pairs[t];
+    std::printf("frames %zu -> %zu: median relative change %.6f over %lld pixels\n", t, t + 1,
+                pair.error, static_cast<long long>(pair.pixels));
+    pairs.push_back(nlohmann::json{{"error", pair.error}, {"pixels", pair.pixels}});
+  }
+  std::printf("temporal stability %s: %.6f (mean over %zu frame pairs)\n", options.sequence.c_str(),
+              stability.error, stability.pairs.size());
+  if (!options.job.output_dir.empty()) {
+    std::filesystem::create_directories(options.job.output_dir);
+    const std::string text =
+        nlohmann::json{{"temporal_stability", stability.error}, {"pairs", pairs}}.dump(2) + "\n";
+    io::write_file_atomically(
+        (std::filesystem::path(options.job.output_dir) / "temporal.json").string(),
+        [&](std::ostream& out) { out << text; });
+  }
+}
+
 // What is scored (one of --model, --random-model, --predictions, --baseline) and how it is
 // labelled.
 void add_predictor_options(CLI::App* cmd, EvalCommandOptions& options) {
@@ -174,6 +206,21 @@ void add_benchmark_options(CLI::App* cmd, EvalCommandOptions& options) {
                 "--data: MoGe benchmark depth is not metric (a suite says per set)");
 }
 
+// --sequence and --truth: temporal stability instead of a benchmark.
+void add_sequence_eval_options(CLI::App* cmd, EvalCommandOptions& options) {
+  CLI::Option* sequence = cmd->add_option(
+      "--sequence", options.sequence,
+      "score the temporal stability of a predicted sequence (the --out of predict --sequence) "
+      "against --truth: the mean over consecutive frames of the median relative change of a "
+      "static point's distance (docs/EVALUATION.md)");
+  cmd->add_option("--truth", options.truth,
+                  "--sequence: the camera path it was predicted from (synth --path's OUT)")
+      ->needs(sequence);
+  for (const char* other :
+       {"--model", "--random-model", "--predictions", "--baseline", "--data", "--suite"})
+    sequence->excludes(other);
+}
+
 }  // namespace
 
 void add_eval_command(CLI::App& app) {
@@ -188,9 +235,14 @@ void add_eval_command(CLI::App& app) {
   add_benchmark_options(cmd, *options);
   auto rig = std::make_shared<RigEvalArgs>();
   add_rig_eval_options(cmd, *rig);
+  add_sequence_eval_options(cmd, *options);
   add_threads_option(cmd, &options->threads);
   auto* sparse = cmd->get_option("--sparse-depth");
   cmd->callback([options, sparse, rig] {
+    if (!options->sequence.empty()) {
+      run_sequence_eval(*options);
+      return;
+    }
     if (!rig->rig.empty()) {
       use_threads(options->threads);
       const eval::EvalJobOptions& job = options->job;

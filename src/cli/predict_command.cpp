@@ -1,5 +1,6 @@
 // omnipoint predict: binds the options of predict::PredictJob (omnipoint/predict/predict_job.h),
-// or with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h), and
+// with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h), or with
+// --sequence those of predict::SequencePredictJob (omnipoint/predict/sequence_predict_job.h), and
 // prints what it reports: a bad image or sparse-depth file skips that image with one line
 // on stderr; inputs that look wrong get a warning line; the run ends with a summary that counts
 // both, and a non-zero status when an image failed. --view then serves the outputs.
@@ -19,6 +20,7 @@
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/point_cloud.h"
 #include "omnipoint/predict/predict_job.h"
+#include "omnipoint/predict/sequence_predict_job.h"
 
 namespace omnipoint::cli {
 
@@ -29,6 +31,9 @@ struct PredictCommandOptions {
   std::string rig;                 // --rig: the rig file; the one input is the frames folder
   std::string lidar_format = "kitti";
   bool lidar_format_given = false;  // --rig: it overrides the rig file's
+  bool sequence = false;            // --sequence: the one input is a folder of one camera's frames
+  int64_t calibration_frames = 8;   // --sequence: the frames the camera is calibrated from
+  std::string scale = "smooth";     // --sequence: fixed, smooth or per-frame
   std::string model_path;
   std::string outputs = "default";
   std::string fit_model = "auto";
@@ -73,6 +78,34 @@ void run_rig_predict(const PredictCommandOptions& options) {
   if (options.view) view_outputs(job.output_dir);
 }
 
+// --sequence: the job's options that apply to a sequence, carried over.
+void run_sequence_predict(const PredictCommandOptions& options) {
+  const predict::PredictJobOptions& job = options.job;
+  if (job.inputs.size() != 1)
+    throw std::invalid_argument("--sequence: expected one frames folder, got " +
+                                std::to_string(job.inputs.size()) + " inputs");
+  predict::SequencePredictJobOptions sequence;
+  sequence.frames_dir = job.inputs.front();
+  sequence.camera = job.camera;
+  sequence.calibration_frames = options.calibration_frames;
+  sequence.scale = predict::parse_scale_mode(options.scale);
+  sequence.use_exif = job.use_exif;
+  sequence.model_path = job.model_path;
+  sequence.device = job.device;
+  sequence.precision = job.precision;
+  sequence.max_size = job.max_size;
+  sequence.num_tokens = job.num_tokens;
+  sequence.edge_rtol = job.edge_rtol;
+  sequence.output_dir = job.output_dir;
+  sequence.output_files = job.output_files;
+  SequencePredictReports reports;
+  const predict::SequencePredictJobSummary summary =
+      predict::SequencePredictJob(sequence, &reports).Run();
+  if (summary.failed > 0)
+    throw std::runtime_error(std::to_string(summary.failed) + " of " +
+                             std::to_string(summary.frames) + " frames failed (see above)");
+}
+
 void run_predict(PredictCommandOptions& options) {
   if (options.view && !viewer_available())
     throw std::runtime_error(
@@ -91,12 +124,44 @@ void run_predict(PredictCommandOptions& options) {
     run_rig_predict(options);
     return;
   }
-  PredictReports reports;
-  const predict::PredictJobSummary summary = predict::PredictJob(job, &reports).Run();
-  if (summary.failed > 0)
-    throw std::runtime_error(std::to_string(summary.failed) + " of " +
-                             std::to_string(summary.images) + " images failed (see above)");
+  if (options.sequence) {
+    run_sequence_predict(options);
+  } else {
+    PredictReports reports;
+    const predict::PredictJobSummary summary = predict::PredictJob(job, &reports).Run();
+    if (summary.failed > 0)
+      throw std::runtime_error(std::to_string(summary.failed) + " of " +
+                               std::to_string(summary.images) + " images failed (see above)");
+  }
   if (options.view) view_outputs(job.output_dir);
+}
+
+// --sequence and its own options.
+void add_sequence_options(CLI::App* command, PredictCommandOptions& options) {
+  CLI::Option* sequence = command->add_flag(
+      "--sequence", options.sequence,
+      "The one input is a folder of one camera's frames (a video's), in name order: one camera "
+      "for all (--camera, else calibrated from the first frames), a metric scale that follows a "
+      "running estimate (--scale), frames written as they finish; a rerun into the same --out "
+      "resumes where an interrupted one stopped");
+  CLI::Option* calibration = command
+                                 ->add_option("--calibration-frames", options.calibration_frames,
+                                              "--sequence: the first frames the camera (without "
+                                              "--camera) and the fixed scale come from")
+                                 ->capture_default_str();
+  CLI::Option* scale =
+      command
+          ->add_option("--scale", options.scale,
+                       "--sequence: the applied metric scale: fixed (the calibration frames' "
+                       "median), smooth (a robust running estimate in log space, "
+                       "predict/sequence_predict_job.h) or per-frame (the network's own)")
+          ->capture_default_str()
+          ->check(CLI::IsMember({"fixed", "smooth", "per-frame"}));
+  calibration->needs(sequence);
+  scale->needs(sequence);
+  for (const char* other : {"--rig", "--fov", "--colmap", "--sparse-depth", "--sparse-depth-radial",
+                            "--lidar-to-camera", "--fit-model"})
+    sequence->excludes(other);
 }
 
 // Inputs: the images, their cameras, their sparse depth.
@@ -218,6 +283,7 @@ void add_predict_command(CLI::App& app) {
   add_input_options(command, *options);
   add_network_options(command, *options);
   add_output_options(command, *options);
+  add_sequence_options(command, *options);
   command->get_option("--rig")->excludes("--fit-model");
   command->callback([options, command] {
     options->lidar_format_given = command->count("--lidar-format") > 0;

@@ -79,4 +79,50 @@ void RigPredictReports::finished(const predict::RigPredictJobSummary& summary) {
                   std::to_string(summary.warnings) + " warning(s)");
 }
 
+void SequencePredictReports::start(const predict::ImageList& frames) {
+  progress_.emplace(static_cast<int64_t>(frames.images.size()));
+}
+
+void SequencePredictReports::note(const std::string& text) {
+  progress_->line("omnipoint: note: " + text);
+}
+
+void SequencePredictReports::frame_started(size_t index, const predict::ImageEntry& frame) {
+  progress_->start(static_cast<int64_t>(index), frame.relative.string());
+}
+
+void SequencePredictReports::frame_resumed(size_t /*index*/, const predict::ImageEntry& frame,
+                                           double metric_scale) {
+  progress_->line(progress_->prefix() + frame.path.string() +
+                  ": finished by an earlier run, not redone (metric scale " +
+                  std::to_string(metric_scale) + ")");
+  progress_->done();
+}
+
+void SequencePredictReports::warning(const predict::ImageEntry& frame, const std::string& text) {
+  progress_->line("omnipoint: warning: " + progress_->prefix() + frame.path.string() + ": " + text);
+}
+
+void SequencePredictReports::frame_written(size_t /*index*/, const predict::ImageEntry& frame,
+                                           const predict::PredictedImage& predicted,
+                                           double network_scale) {
+  progress_->line(progress_->prefix() + predict::describe(frame, predicted) +
+                  " (the network's scale " + std::to_string(network_scale) + ")");
+  progress_->done();
+}
+
+void SequencePredictReports::frame_failed(size_t /*index*/, const predict::ImageEntry& frame,
+                                          const std::string& error) {
+  progress_->line("omnipoint: error: " + progress_->prefix() + "skipped " + frame.path.string() +
+                  ": " + error);
+  progress_->done();
+}
+
+void SequencePredictReports::finished(const predict::SequencePredictJobSummary& summary) {
+  progress_->line(std::to_string(summary.frames) + " frame(s): " + std::to_string(summary.written) +
+                  " written, " + std::to_string(summary.resumed) + " resumed (finished earlier), " +
+                  std::to_string(summary.failed) + " failed, " + std::to_string(summary.warnings) +
+                  " warning(s)");
+}
+
 }  // namespace omnipoint::cli

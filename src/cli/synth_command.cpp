@@ -18,6 +18,7 @@
 #include "cli/threads.h"
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/data/synth/benchmark.h"
+#include "omnipoint/data/synth/camera_path.h"
 #include "omnipoint/data/synth/kitti_raw_drive.h"
 #include "omnipoint/data/synth/rig_render.h"
 #include "omnipoint/data/synth/synthesize.h"
@@ -47,6 +48,9 @@ struct SynthArgs {
   std::string rig, body_axes = "camera";
   double yaw_deg = 0;
   bool lidar_sweep = false;
+  // --path: a camera path through one scene (data/synth/camera_path.h).
+  bool path = false;
+  double path_step = 0.05, path_yaw_deg = 1.0;
 };
 
 data::synth::SynthOptions synth_options(const SynthArgs& args) {
@@ -154,6 +158,27 @@ void render_rig_frames(const SynthArgs& args) {
             << "/rig.json " << args.out << "/frames --out PREDICTIONS\n";
 }
 
+// --count frames of a camera path through the scene of --scene and --seed.
+void render_camera_path(const SynthArgs& args) {
+  data::synth::CameraPathOptions options;
+  if (!args.camera.empty()) options.camera = io::read_camera(args.camera);
+  options.scene = data::synth::parse_scene_kind(args.scene);
+  options.seed = args.seed;
+  options.frames = args.count;
+  options.step = args.path_step;
+  options.yaw_step_deg = args.path_yaw_deg;
+  options.synth = synth_options(args);
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<std::string> frames = data::synth::write_camera_path(args.out, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << args.out << "\n";
+  std::cerr << "synth: camera path " << args.out << ": " << frames.size() << " frames of "
+            << args.scene << " scene " << args.seed << " (" << args.out << "/frames for predict "
+            << "--sequence, " << args.out << "/truth for eval --sequence), in " << seconds
+            << " s\n";
+}
+
 // "K/N" with 0 <= K < N.
 std::array<int64_t, 2> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
@@ -168,6 +193,18 @@ std::array<int64_t, 2> parse_shard(const std::string& text) {
   } catch (const std::exception&) {
   }
   throw std::invalid_argument("--shard " + text + ": expected K/N with 0 <= K < N");
+}
+
+void add_camera_path_options(CLI::App* cmd, SynthArgs& args) {
+  cmd->add_flag("--path", args.path,
+                "write a camera path through one scene (--scene, --seed): --count frames moving "
+                "--path-step metres forward and turning --path-yaw degrees per frame, as "
+                "OUT/frames/*.png (predict --sequence) and OUT/truth/<frame>/ (samples with "
+                "their poses; eval --sequence) (default camera PINHOLE 128 96 80 80 64 48)");
+  cmd->add_option("--path-step", args.path_step, "--path: metres per frame along the view")
+      ->capture_default_str();
+  cmd->add_option("--path-yaw", args.path_yaw_deg, "--path: degrees per frame, turning left")
+      ->capture_default_str();
 }
 
 }  // namespace
@@ -230,9 +267,16 @@ void add_synth_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--lidar", args->lidar_sweep,
                 "--rig: cast the rig's LiDAR (--lidar-beams ...) into each frame's lidar.bin");
+  add_camera_path_options(cmd, *args);
   add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
     use_threads(args->threads);
+    if (args->path) {
+      if (!args->benchmark.empty() || args->kitti_raw || !args->rig.empty())
+        throw std::invalid_argument("--path: not with --benchmark, --kitti-raw or --rig");
+      render_camera_path(*args);
+      return;
+    }
     if (!args->rig.empty()) {
       render_rig_frames(*args);
       return;

@@ -106,5 +106,37 @@ TEST(FitCamera, RejectsBadInput) {
   EXPECT_THROW(fit_camera("NOPE", 32, 24, map.rays, map.valid), std::invalid_argument);
 }
 
+// Several images of one camera fitted together: each image's valid rays are a different half of
+// the picture, so only their union pins the camera down; from a start or the pinhole guess.
+TEST(FitCameraToImages, RecoversTheCameraFromTheImagesTogether) {
+  const Camera truth = parse_camera("UCM 64 48 30.6 30.4 32.3 23.8 0.55");
+  const auto map = truth.ray_map(at::kDouble);
+  const at::Tensor left = map.valid.clone(), right = map.valid.clone();
+  left.slice(1, 32, 64).fill_(false);
+  right.slice(1, 0, 32).fill_(false);
+  const at::Tensor rays = at::stack({map.rays, map.rays});
+  const at::Tensor valid = at::stack({left, right});
+  const Camera start("UCM", 64, 48, {28, 28, 31, 25, 0.4});
+  for (const Camera* from : {static_cast<const Camera*>(nullptr), &start}) {
+    const CameraFit fit = fit_camera_model_to_images("UCM", 64, 48, rays, valid, from);
+    for (size_t i = 0; i < truth.params().size(); ++i)
+      EXPECT_NEAR(fit.camera.params()[i], truth.params()[i], 1e-4) << i;
+    EXPECT_LT(fit.residual.max_deg, 1e-4);
+  }
+}
+
+TEST(FitCameraToImages, RejectsBadInput) {
+  const auto map = parse_camera("PINHOLE 32 24 25 25 16 12").ray_map(at::kDouble);
+  const at::Tensor rays = map.rays.unsqueeze(0), valid = map.valid.unsqueeze(0);
+  EXPECT_THROW(fit_camera_model_to_images("PINHOLE", 32, 24, map.rays, map.valid),
+               std::invalid_argument);  // not a stack
+  EXPECT_THROW(fit_camera_model_to_images("PINHOLE", 24, 32, rays, valid), std::invalid_argument);
+  EXPECT_THROW(fit_camera_model_to_images("PINHOLE", 32, 24, rays, at::zeros_like(valid)),
+               std::invalid_argument);
+  const Camera other("UCM", 32, 24, {25, 25, 16, 12, 0.1});
+  EXPECT_THROW(fit_camera_model_to_images("PINHOLE", 32, 24, rays, valid, &other),
+               std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace omnipoint::camera

@@ -223,6 +223,40 @@ CameraFit fit_camera_model(const std::string& model, int64_t width, int64_t heig
   return {std::move(camera), residual};
 }
 
+CameraFit fit_camera_model_to_images(const std::string& model, int64_t width, int64_t height,
+                                     const at::Tensor& rays, const at::Tensor& valid,
+                                     const Camera* start) {
+  find_camera_model(model);
+  if (start != nullptr &&
+      (start->model_name() != model || start->width() != width || start->height() != height))
+    throw std::invalid_argument("fit_camera_model_to_images: the start camera is not a " + model +
+                                " of " + std::to_string(width) + "x" + std::to_string(height));
+  if (rays.dim() != 4 || rays.size(0) < 1 || valid.dim() != 3 || valid.size(0) != rays.size(0))
+    throw std::invalid_argument(
+        "fit_camera_model_to_images: expects rays (N, H, W, 3) and valid (N, H, W), N >= 1");
+  const int64_t images = rays.size(0);
+  // Each image's even subsample of its share, concatenated: one set of samples.
+  const auto samples_of = [&](int64_t total) {
+    std::vector<at::Tensor> sample_rays, sample_pixels;
+    for (int64_t i = 0; i < images; ++i) {
+      check_shapes("fit_camera_model_to_images", width, height, rays[i], valid[i]);
+      const Samples each =
+          sample_valid_pixels(rays[i], valid[i], width, std::max<int64_t>(16, total / images));
+      sample_rays.push_back(each.rays);
+      sample_pixels.push_back(each.pixels);
+    }
+    return Samples{at::cat(sample_rays), at::cat(sample_pixels)};
+  };
+  const Samples samples = samples_of(4096);
+  if (samples.rays.size(0) < 16)
+    throw std::invalid_argument("fit_camera_model_to_images: needs at least 16 valid rays, got " +
+                                std::to_string(samples.rays.size(0)));
+  Camera camera = fit_samples(model, {width, height}, samples, 100,
+                              start != nullptr ? &start->params() : nullptr);
+  const AngularResidual residual = summarise(angles_deg(camera, samples_of(16384)));
+  return {std::move(camera), residual};
+}
+
 std::vector<std::string> auto_fit_candidates(double max_angle_deg) {
   std::vector<std::string> names;
   if (max_angle_deg < 80) names.emplace_back("PINHOLE");

@@ -44,6 +44,17 @@ struct CameraFit {
 CameraFit fit_camera_model(const std::string& model, int64_t width, int64_t height,
                            const at::Tensor& rays, const at::Tensor& valid);
 
+// fit_camera_model on the rays of several images of one camera together (a video's first
+// frames): rays (N, H, W, 3) and valid (N, H, W); each image gives an equal share of the 4096
+// samples (and of the residual's), so the camera is the one that explains all of them best.
+// Levenberg-Marquardt starts from `start` (a camera of `model` at width x height, e.g. one
+// image's own fit: wide rays that a pinhole start cannot project make the pinhole start end in
+// a poor local minimum) when given, else from fit_camera's pinhole guess. Throws as fit_camera
+// does, and std::invalid_argument for a start of another model or size.
+CameraFit fit_camera_model_to_images(const std::string& model, int64_t width, int64_t height,
+                                     const at::Tensor& rays, const at::Tensor& valid,
+                                     const Camera* start = nullptr);
+
 // The candidate models for rays whose widest valid ray is `max_angle_deg` from the optical
 // axis (+z), simplest first: PINHOLE below 80 degrees, EQUIRECTANGULAR from 60 (cropped or
 // full panoramas), UCM and OPENCV_FISHEYE below 150. The OpenCV-style pinhole distortion

@@ -4,6 +4,7 @@
 #include <ATen/ATen.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -155,6 +156,20 @@ SparseDepthInput resize_sparse_depth(const SparseDepthInput& input, int64_t imag
   SparseDepthInput resized = input;
   resized.depth_map = geometry::resize_sparse_map(input.depth_map, width, height);
   return resized;
+}
+
+DecodedImage read_input_image(const std::string& path, int64_t max_size, bool use_exif) {
+  const auto start = std::chrono::steady_clock::now();
+  DecodedImage decoded;
+  if (use_exif) decoded.exif = io::read_exif(path);
+  const at::Tensor original =
+      io::apply_exif_orientation(io::read_image(path), decoded.exif.orientation);
+  decoded.original_size = {original.size(1), original.size(0)};
+  decoded.size = size_within(original.size(1), original.size(0), max_size);
+  decoded.image = resize_image(original, decoded.size.width, decoded.size.height);
+  decoded.decode_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return decoded;
 }
 
 }  // namespace omnipoint::predict

@@ -67,6 +67,16 @@ camera::ImageSize size_within(int64_t width, int64_t height, int64_t max_size);
 // aliasing when shrinking by large factors). The camera needs no counterpart: predict resizes a
 // camera of the image's aspect ratio itself (Camera::resized).
 at::Tensor resize_image(const at::Tensor& image, int64_t width, int64_t height);
+// An input image decoded (turned as its EXIF orientation says when use_exif) and brought to
+// the network's size (size_within max_size): what predict hands the network.
+struct DecodedImage {
+  at::Tensor image;                 // (H, W, 3) at `size`
+  camera::ImageSize original_size;  // as decoded and turned
+  camera::ImageSize size;
+  io::ExifFacts exif;  // none unless read
+  double decode_ms = 0;
+};
+DecodedImage read_input_image(const std::string& path, int64_t max_size, bool use_exif);
 // The sparse depth of an image_width x image_height image at width x height, with the image:
 // depth maps (which must be at the image's size) through geometry::resize_sparse_map (no sample
 // lost or blended); point clouds unchanged (they are projected at the new size).

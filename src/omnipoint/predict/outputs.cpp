@@ -247,6 +247,8 @@ double write_prediction_outputs(const std::string& folder, const at::Tensor& ima
   io::StagedFolder staged(folder);
   const fs::path& staging = staged.path();
   nlohmann::json json = summary(p);
+  if (!options.camera_json_extra.empty())
+    json.update(nlohmann::json::parse(options.camera_json_extra));
   nlohmann::json file_ms = nlohmann::json::object();
   std::mutex json_mutex;  // the writers run concurrently; json and file_ms are shared
   const auto record = [&](const auto& update) {

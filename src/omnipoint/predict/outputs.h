@@ -60,6 +60,9 @@ struct OutputOptions {
   // A (4, 4) camera-from-world pose (a COLMAP image's): points_world.ply is written too, the
   // valid points in that world frame, and camera.json records the pose.
   at::Tensor camera_from_world;
+  // A JSON object whose members camera.json records too (`predict --sequence`'s "sequence"
+  // record); "": none.
+  std::string camera_json_extra;
 };
 
 // The `--outputs` list: comma-separated group names or file names, e.g. "ply,npy,mesh":

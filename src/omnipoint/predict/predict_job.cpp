@@ -2,7 +2,6 @@
 
 #include <ATen/ATen.h>
 
-#include <chrono>
 #include <cmath>
 #include <exception>
 #include <filesystem>
@@ -40,29 +39,6 @@ std::string number(double value) {
   std::ostringstream text;
   text << value;
   return text.str();
-}
-
-// An image decoded (turned as its EXIF orientation says) and brought to the network's size.
-struct DecodedImage {
-  at::Tensor image;                 // (H, W, 3) at `size`
-  camera::ImageSize original_size;  // as decoded and turned
-  camera::ImageSize size;
-  io::ExifFacts exif;  // none unless read
-  double decode_ms = 0;
-};
-
-DecodedImage decode(const ImageEntry& entry, int64_t max_size, bool use_exif) {
-  const auto start = std::chrono::steady_clock::now();
-  DecodedImage decoded;
-  if (use_exif) decoded.exif = io::read_exif(entry.path.string());
-  const at::Tensor original =
-      io::apply_exif_orientation(io::read_image(entry.path.string()), decoded.exif.orientation);
-  decoded.original_size = {original.size(1), original.size(0)};
-  decoded.size = size_within(original.size(1), original.size(0), max_size);
-  decoded.image = resize_image(original, decoded.size.width, decoded.size.height);
-  decoded.decode_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  return decoded;
 }
 
 // The points of all images in the reconstruction's world frame (fused.ply).
@@ -140,7 +116,7 @@ void JobRun::read_inputs() {
   // kept for its turn (an unreadable one is reported and skipped then).
   if (!options_.camera.empty()) {
     try {
-      first_ = decode(list_.images.front(), options_.max_size, use_exif());
+      first_ = read_input_image(list_.images.front().path.string(), options_.max_size, use_exif());
     } catch (const std::exception&) {
       first_error_ = std::current_exception();
     }
@@ -152,7 +128,7 @@ void JobRun::read_inputs() {
 DecodedImage JobRun::decode_image(size_t index) {
   if (index == 0 && first_error_) std::rethrow_exception(first_error_);
   if (index == 0 && first_) return *std::exchange(first_, std::nullopt);
-  return decode(list_.images[index], options_.max_size, use_exif());
+  return read_input_image(list_.images[index].path.string(), options_.max_size, use_exif());
 }
 
 SparseDepthInput JobRun::sparse_depth_file_of(const ImageEntry& entry) {

@@ -339,6 +339,17 @@ void remove_depth_edges(Prediction& p, double rtol) {
   p.depth = geometry::planar_depth(p.points);
 }
 
+void apply_metric_scale(Prediction& p, double metric_scale) {
+  if (!(metric_scale > 0) || !std::isfinite(metric_scale))
+    throw std::invalid_argument("apply_metric_scale: expected a positive scale, got " +
+                                std::to_string(metric_scale));
+  const double factor = metric_scale / p.metric_scale;
+  p.distance = p.distance * factor;
+  p.points = p.points * factor;
+  p.depth = p.depth * factor;
+  p.metric_scale = metric_scale;
+}
+
 Prediction prediction_from_geometry(const at::Tensor& rays, const at::Tensor& distance,
                                     const at::Tensor& mask, double metric_scale) {
   if (rays.dim() != 3 || rays.size(2) != 3 || distance.sizes() != rays.sizes().slice(0, 2) ||

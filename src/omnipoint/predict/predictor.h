@@ -196,6 +196,10 @@ std::vector<std::string> sparse_depth_warnings(
 // (the rays stay: they are the camera's); records rtol and the count in p. rtol <= 0: no-op.
 void remove_depth_edges(Prediction& p, double rtol);
 
+// Brings p to another metric scale: its distances, points and depth times
+// metric_scale / p.metric_scale; p.metric_scale becomes metric_scale (a positive number).
+void apply_metric_scale(Prediction& p, double metric_scale);
+
 // A prediction built from geometry alone (the output writers' input; also the oracle path of
 // the tests): rays (H, W, 3), metric distance (H, W), mask (H, W); points, depth and the
 // zeroing outside the mask follow.

@@ -12,7 +12,10 @@ namespace omnipoint::data::synth {
 
 SynthSample synthesize(SceneKind kind, std::uint64_t seed, const camera::Camera& camera,
                        const SynthOptions& options) {
-  Scene scene = make_scene(kind, seed);
+  return render_sample(make_scene(kind, seed), camera, options);
+}
+
+SynthSample render_sample(Scene scene, const camera::Camera& camera, const SynthOptions& options) {
   const auto rays = camera.ray_map(at::TensorOptions().dtype(at::kFloat).device(options.device));
   const Render render = render_scene(scene, rays.rays, rays.valid, options.render);
   const auto cpu = [](const at::Tensor& t) { return t.to(at::kCPU).contiguous(); };

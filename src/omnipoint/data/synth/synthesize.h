@@ -31,6 +31,9 @@ struct SynthSample {
 
 SynthSample synthesize(SceneKind kind, std::uint64_t seed, const camera::Camera& camera,
                        const SynthOptions& options = {});
+// The same for a scene already made (its pose moved: a camera path, data/synth/camera_path.h).
+SynthSample render_sample(Scene scene, const camera::Camera& camera,
+                          const SynthOptions& options = {});
 
 // meta.json fields describing the scene: {"scene", "seed", "pose": {...}} as JSON text.
 std::string scene_meta_json(const Scene& scene);
