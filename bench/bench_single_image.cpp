@@ -6,7 +6,7 @@
 //   bench_single_image MODEL INPUT.npy fp32|bf16 [WARM_RUNS]
 // prints one line: load_ms first_ms warm_ms (the median of WARM_RUNS, default 3) peak_MB read_ms,
 // where read_ms is the part of loading that reads the file (io::read_weights, timed afterwards
-// on its own); the rest of load_ms builds the network and copies the weights into it.
+// on its own); the rest of load_ms builds the network and loads the weights into it.
 #include <ATen/ATen.h>
 
 #include <algorithm>

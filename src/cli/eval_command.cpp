@@ -214,8 +214,8 @@ void add_sequence_eval_options(CLI::App* cmd, EvalCommandOptions& options) {
       "against --truth: the mean over consecutive frames of the median relative change of a "
       "static point's distance (docs/EVALUATION.md)");
   cmd->add_option("--truth", options.truth,
-                  "--sequence: the camera path it was predicted from (synth --path's OUT)")
-      ->needs(sequence);
+                  "--sequence: the camera path it was predicted from (synth --path's OUT); --rig: "
+                  "TRUTH/<frame>/<camera>/distance.npy (default FRAMES/../truth)");
   for (const char* other :
        {"--model", "--random-model", "--predictions", "--baseline", "--data", "--suite"})
     sequence->excludes(other);
@@ -244,6 +244,7 @@ void add_eval_command(CLI::App& app) {
       return;
     }
     if (!rig->rig.empty()) {
+      rig->truth = options->truth;
       use_threads(options->threads);
       const eval::EvalJobOptions& job = options->job;
       run_rig_eval(*rig,
@@ -252,6 +253,8 @@ void add_eval_command(CLI::App& app) {
                         !job.baseline.empty() || !job.random_model.empty()});
       return;
     }
+    if (!options->truth.empty())
+      throw std::invalid_argument("--truth goes with --sequence or --rig");
     run_eval(*options, sparse->count() > 0);
   });
 }

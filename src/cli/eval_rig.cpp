@@ -16,9 +16,6 @@ void add_rig_eval_options(CLI::App* cmd, RigEvalArgs& args) {
   cmd->add_option("--frames", args.frames,
                   "--rig: the frames (FRAMES/<frame>/<camera>.png [lidar.bin], as `omnipoint "
                   "synth --rig` writes them)");
-  cmd->add_option(
-      "--truth", args.truth,
-      "--rig: the truth, TRUTH/<frame>/<camera>/distance.npy (default FRAMES/../truth)");
   cmd->add_flag("--no-lidar", args.no_lidar,
                 "--rig: do not score the LiDAR rule (the sweeps are left out of every rule)");
   cmd->add_option("--max-size", args.max_size,

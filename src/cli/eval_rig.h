@@ -11,7 +11,7 @@ namespace omnipoint::cli {
 struct RigEvalArgs {
   std::string rig;     // --rig: the rig file; set: eval scores a rig instead of datasets
   std::string frames;  // --frames: FRAMES/<frame>/<camera>.<ext> [lidar.<ext>]
-  std::string truth;   // --truth: TRUTH/<frame>/<camera>/distance.npy ("": FRAMES/../truth)
+  std::string truth;   // eval's --truth: TRUTH/<frame>/<camera>/distance.npy ("": FRAMES/../truth)
   bool no_lidar = false;
   int64_t max_size = 0;
 };

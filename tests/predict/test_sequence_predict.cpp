@@ -28,6 +28,7 @@
 #include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/predict/sequence_predict_job.h"
+#include "support/scratch_dir.h"
 
 namespace omnipoint::predict {
 namespace {
@@ -106,8 +107,9 @@ class SequencePredict : public ::testing::Test {
   static constexpr int64_t kCalibrationFrames = 4;
 
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / "omnipoint_sequence_predict";
-    fs::remove_all(dir_);
+    // One folder per process: CTest runs each test of the suite in a process of its own, at
+    // the same time as the others.
+    dir_ = test::fresh_process_dir("omnipoint_sequence_predict");
     data::synth::CameraPathOptions path;
     path.camera = camera::Camera("PINHOLE", 96, 72, {60, 60, 48, 36});
     path.frames = kFrames;
