@@ -148,7 +148,7 @@ TEST(RigOverlap, CamerasThatOverlapNothingAreLeftAlone) {
   EXPECT_NEAR(some.factors[2] / 0.8, 1.0, 1e-3);
   // A larger minimum than the overlap has: the pair does not count.
   OverlapOptions strict;
-  strict.min_pixels = 64 * 48;
+  strict.min_pixels = int64_t{64} * 48;
   EXPECT_FALSE(
       reconcile_overlap_scales({view("front", 0.8), view("front_right", 1.2)}, strict).residual);
 }

@@ -59,7 +59,7 @@ SkipParameterInit::~SkipParameterInit() {
   skip_parameter_init = outer_;
 }
 
-LinearImpl::LinearImpl(torch::nn::LinearOptions options_) : options(std::move(options_)) {
+LinearImpl::LinearImpl(const torch::nn::LinearOptions& options_) : options(options_) {
   reset();
 }
 
@@ -81,7 +81,7 @@ at::Tensor LinearImpl::forward(const at::Tensor& input) {
   return torch::nn::functional::linear(input, weight, bias);
 }
 
-Conv2dImpl::Conv2dImpl(torch::nn::Conv2dOptions options_) : options(std::move(options_)) {
+Conv2dImpl::Conv2dImpl(const torch::nn::Conv2dOptions& options_) : options(options_) {
   reset();
 }
 
@@ -107,8 +107,8 @@ at::Tensor Conv2dImpl::forward(const at::Tensor& input) {
                     options.dilation(), options.groups());
 }
 
-ConvTranspose2dImpl::ConvTranspose2dImpl(torch::nn::ConvTranspose2dOptions options_)
-    : options(std::move(options_)) {
+ConvTranspose2dImpl::ConvTranspose2dImpl(const torch::nn::ConvTranspose2dOptions& options_)
+    : options(options_) {
   reset();
 }
 

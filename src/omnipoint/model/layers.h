@@ -32,7 +32,7 @@ class LinearImpl : public torch::nn::Cloneable<LinearImpl> {
  public:
   LinearImpl(int64_t in_features, int64_t out_features)
       : LinearImpl(torch::nn::LinearOptions(in_features, out_features)) {}
-  explicit LinearImpl(torch::nn::LinearOptions options);
+  explicit LinearImpl(const torch::nn::LinearOptions& options);
   void reset() override;
   at::Tensor forward(const at::Tensor& input);
 
@@ -45,7 +45,7 @@ TORCH_MODULE(Linear);
 // mode (replicate, reflect, circular).
 class Conv2dImpl : public torch::nn::Cloneable<Conv2dImpl> {
  public:
-  explicit Conv2dImpl(torch::nn::Conv2dOptions options);
+  explicit Conv2dImpl(const torch::nn::Conv2dOptions& options);
   void reset() override;
   at::Tensor forward(const at::Tensor& input);
 
@@ -56,7 +56,7 @@ TORCH_MODULE(Conv2d);
 
 class ConvTranspose2dImpl : public torch::nn::Cloneable<ConvTranspose2dImpl> {
  public:
-  explicit ConvTranspose2dImpl(torch::nn::ConvTranspose2dOptions options);
+  explicit ConvTranspose2dImpl(const torch::nn::ConvTranspose2dOptions& options);
   void reset() override;
   at::Tensor forward(const at::Tensor& input);
 

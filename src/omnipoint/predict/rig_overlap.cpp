@@ -264,6 +264,7 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
     level_free_groups();
     for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
       std::vector<PairMeasure> measures;
+      measures.reserve(counted.size());
       for (const auto& [i, j] : counted)
         measures.push_back(measure_pair(cameras, poses, log_factor, i, j, options.band));
       // Each pair wants log f_i − log f_j to move by −its log ratio; least squares, minimum norm

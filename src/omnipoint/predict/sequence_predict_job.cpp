@@ -274,7 +274,7 @@ SequencePredictJobSummary SequenceRun::run() {
       continue;
     }
     try {
-      std::future<DecodedImage> current = std::move(upcoming);
+      std::future<DecodedImage> current = std::exchange(upcoming, {});
       upcoming_index = next_to_predict(i + 1);
       if (upcoming_index < list_.images.size()) upcoming = decode_async(upcoming_index);
       predict_frame(i, current.get(), scale);

@@ -156,7 +156,7 @@ RigFramesSummary write_rig_frames(const std::string& out, const RigFramesOptions
   for (int64_t k = 0; k < options.frames; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "%06lld", static_cast<long long>(k));
-    summary.frames.push_back(name);
+    summary.frames.emplace_back(name);
     const fs::path frame = root / "frames" / name;
     if (fs::is_directory(frame)) {
       ++summary.kept;
