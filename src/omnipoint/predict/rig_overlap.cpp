@@ -7,6 +7,9 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <utility>
+
+#include "omnipoint/predict/median.h"
 
 namespace omnipoint::predict {
 
@@ -248,12 +251,10 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
           values.push_back(log_factor[c] +
                            (options.free_group_scale ? std::log(cameras[c].scale) : 0.0));
       if (values.empty()) continue;
-      std::sort(values.begin(), values.end());
-      const size_t m = values.size();
-      const double median = m % 2 == 1 ? values[m / 2] : 0.5 * (values[m / 2 - 1] + values[m / 2]);
+      const double middle = median(std::move(values));
       const double target = options.free_group_scale ? std::log(*options.free_group_scale) : 0;
       for (size_t c : free_cameras)
-        if (result.group[c] == static_cast<int>(root)) log_factor[c] += target - median;
+        if (result.group[c] == static_cast<int>(root)) log_factor[c] += target - middle;
     }
   };
 

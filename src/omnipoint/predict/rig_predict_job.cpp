@@ -21,6 +21,7 @@
 #include "omnipoint/io/staged_folder.h"
 #include "omnipoint/predict/colmap_scene.h"
 #include "omnipoint/predict/inputs.h"
+#include "omnipoint/predict/median.h"
 #include "omnipoint/predict/rig_overlap.h"
 
 namespace omnipoint::predict {
@@ -96,12 +97,6 @@ at::Tensor inverse_pose(const at::Tensor& body_from_camera) {
   inverse.slice(0, 0, 3).slice(1, 0, 3).copy_(rotation.t());
   inverse.slice(0, 0, 3).select(1, 3).copy_(-rotation.t().matmul(translation));
   return inverse;
-}
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
 // Brings a prediction to another metric scale: distances, points and depth times `factor`.

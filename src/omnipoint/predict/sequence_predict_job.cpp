@@ -19,6 +19,7 @@
 #include "omnipoint/io/camera_file.h"
 #include "omnipoint/io/image.h"
 #include "omnipoint/predict/inputs.h"
+#include "omnipoint/predict/median.h"
 
 namespace omnipoint::predict {
 
@@ -26,12 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
 
 // What an earlier run recorded of a finished frame (its camera.json's sequence record).
 struct FinishedFrame {
