@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -89,6 +90,27 @@ std::string missing_command_error(const CLI::App& app) {
          command_names(*level) + " (see " + path + "--help)";
 }
 
+// Whether this is a sanitizer build (their leak and race reports run at a normal exit).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+constexpr bool kSanitized = __has_feature(address_sanitizer) || __has_feature(thread_sanitizer);
+#else
+constexpr bool kSanitized = false;
+#endif
+
+// The command is done and its files are written: flushes the standard streams and ends the
+// process without the libraries' static destructors (LibTorch deregistering its thousands of
+// operators: tens of milliseconds of every short run, docs/PERFORMANCE.md). Sanitizer builds
+// end normally.
+[[noreturn]] void exit_without_destructors(int status) {
+  std::cout.flush();
+  std::cerr.flush();
+  std::fflush(nullptr);
+  if (kSanitized) std::exit(status);
+  std::_Exit(status);
+}
+
 }  // namespace
 
 // A function-try-block: nothing escapes main, not even from setting the commands up or from
@@ -145,7 +167,7 @@ int main(int argc, char** argv) try {
     std::cerr << "omnipoint: error: an unknown exception\n";
     return 1;
   }
-  return 0;
+  exit_without_destructors(0);
 } catch (...) {
   std::fputs("omnipoint: error: the command line could not be set up or reported\n", stderr);
   return 1;

@@ -11,8 +11,10 @@ class Option;
 
 namespace omnipoint::cli {
 
-// util::set_threads(requested). With more than one thread and no OMP_WAIT_POLICY in the
-// environment, first restarts this program with OMP_WAIT_POLICY=passive.
+// util::set_threads(requested). The tool's OpenMP workers wait passively unless
+// OMP_WAIT_POLICY says otherwise (threads.cpp: why and how); where the OpenMP runtime did not
+// take that default as it loaded, with more than one thread, first restarts this program with
+// OMP_WAIT_POLICY=passive.
 void use_threads(int requested);
 
 // `--threads N` (N >= 1) on `command`, stored in *threads; the command's callback then calls
