@@ -149,7 +149,7 @@ int main(int argc, char** argv) try {
     omnipoint::cli::use_threads(0);  // every core; a command's --threads overrides
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    if (e.get_exit_code() == 0) exit_without_destructors(app.exit(e));  // --help, --version
     // Bad arguments: one line on stderr, like every other error (docs/DESIGN.md).
     const std::string missing =
         dynamic_cast<const CLI::RequiredError*>(&e) ? missing_command_error(app) : "";
