@@ -56,8 +56,8 @@ void run_train(const TrainOptions& options) {
   session.resume = options.resume;
   session.stop_after = options.stop_after;
   session.Check();
-  // The session computes on the config's threads; the tool first restarts itself with a
-  // passive OpenMP wait policy where that applies (cli/threads.h).
+  // The session computes on the config's threads, its OpenMP workers waiting passively
+  // (cli/threads.h).
   use_threads(session.config.threads);
   PrintingObserver observer;
   train::TrainingSession(std::move(session), &observer).Run();
