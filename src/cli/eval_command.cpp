@@ -9,7 +9,8 @@
 //   points/         with --save-points: each sample × mode's scored point map (and sparse input)
 // and a progress line with the ETA on stderr; with --suite, a warning line per set not found.
 // With --sequence PREDICTIONS --truth PATH it scores the temporal stability of a predicted
-// sequence instead (eval/temporal.h) and prints it (--out: also OUT/temporal.json).
+// sequence instead (eval/temporal.h; a rig's video per camera against synth --rig --path's
+// set) and prints it (--out: also OUT/temporal.json).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 

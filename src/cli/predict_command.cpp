@@ -1,6 +1,7 @@
 // omnipoint predict: binds the options of predict::PredictJob (omnipoint/predict/predict_job.h),
-// with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h), or with
-// --sequence those of predict::SequencePredictJob (omnipoint/predict/sequence_predict_job.h), and
+// with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h; with
+// --sequence too, the rig's video), or with --sequence alone those of
+// predict::SequencePredictJob (omnipoint/predict/sequence_predict_job.h), and
 // prints what it reports: a bad image or sparse-depth file skips that image with one line
 // on stderr; inputs that look wrong get a warning line; the run ends with a summary that counts
 // both, and a non-zero status when an image failed. --view then serves the outputs.
