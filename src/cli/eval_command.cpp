@@ -9,7 +9,8 @@
 //   points/         with --save-points: each sample × mode's scored point map (and sparse input)
 // and a progress line with the ETA on stderr; with --suite, a warning line per set not found.
 // With --sequence PREDICTIONS --truth PATH it scores the temporal stability of a predicted
-// sequence instead (eval/temporal.h) and prints it (--out: also OUT/temporal.json).
+// sequence instead (eval/temporal.h; a rig's video per camera against synth --rig --path's
+// set) and prints it (--out: also OUT/temporal.json).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -116,25 +117,54 @@ void run_eval(EvalCommandOptions options, bool sparse_depth_given) {
   std::cout << result.table;
 }
 
-// --sequence: the temporal stability of a predicted sequence against its camera path.
-void run_sequence_eval(const EvalCommandOptions& options) {
-  if (options.truth.empty())
-    throw std::invalid_argument("--sequence needs --truth (the camera path of `synth --path`)");
-  const eval::TemporalStability stability =
-      eval::score_predicted_sequence(options.sequence, options.truth);
+// Prints a sequence's frame pairs (each line after `prefix`) and returns them as JSON.
+nlohmann::json print_pairs(const eval::TemporalStability& stability, const std::string& prefix) {
   nlohmann::json pairs = nlohmann::json::array();  // NaN (a pair without overlap) is null
   for (size_t t = 0; t < stability.pairs.size(); ++t) {
     const eval::PairStability& pair = stability.pairs[t];
-    std::printf("frames %zu -> %zu: median relative change %.6f over %lld pixels\n", t, t + 1,
-                pair.error, static_cast<long long>(pair.pixels));
+    std::printf("%sframes %zu -> %zu: median relative change %.6f over %lld pixels\n",
+                prefix.c_str(), t, t + 1, pair.error, static_cast<long long>(pair.pixels));
     pairs.push_back(nlohmann::json{{"error", pair.error}, {"pixels", pair.pixels}});
   }
-  std::printf("temporal stability %s: %.6f (mean over %zu frame pairs)\n", options.sequence.c_str(),
-              stability.error, stability.pairs.size());
+  return pairs;
+}
+
+// --sequence with a rig's truth (synth --rig --path): each camera's stability, and their mean.
+nlohmann::json run_rig_sequence_eval(const EvalCommandOptions& options) {
+  const eval::RigTemporalStability stability =
+      eval::score_predicted_rig_sequence(options.sequence, options.truth);
+  nlohmann::json cameras = nlohmann::json::object();
+  for (const auto& [name, camera] : stability.cameras) {
+    const nlohmann::json pairs = print_pairs(camera, "camera " + name + ": ");
+    std::printf("camera %s: temporal stability %.6f\n", name.c_str(), camera.error);
+    cameras[name] = {{"temporal_stability", camera.error}, {"pairs", pairs}};
+  }
+  std::printf("temporal stability %s: %.6f (mean over %zu cameras)\n", options.sequence.c_str(),
+              stability.error, stability.cameras.size());
+  return {{"temporal_stability", stability.error}, {"cameras", cameras}};
+}
+
+// --sequence: the temporal stability of a predicted sequence against its camera path (or a
+// rig's video against its rendered rig path).
+void run_sequence_eval(const EvalCommandOptions& options) {
+  if (options.truth.empty())
+    throw std::invalid_argument(
+        "--sequence needs --truth (the camera path of `synth --path`, or the set of `synth --rig "
+        "--path`)");
+  nlohmann::json report;
+  if (eval::is_rig_truth(options.truth)) {
+    report = run_rig_sequence_eval(options);
+  } else {
+    const eval::TemporalStability stability =
+        eval::score_predicted_sequence(options.sequence, options.truth);
+    const nlohmann::json pairs = print_pairs(stability, "");
+    std::printf("temporal stability %s: %.6f (mean over %zu frame pairs)\n",
+                options.sequence.c_str(), stability.error, stability.pairs.size());
+    report = {{"temporal_stability", stability.error}, {"pairs", pairs}};
+  }
   if (!options.job.output_dir.empty()) {
     std::filesystem::create_directories(options.job.output_dir);
-    const std::string text =
-        nlohmann::json{{"temporal_stability", stability.error}, {"pairs", pairs}}.dump(2) + "\n";
+    const std::string text = report.dump(2) + "\n";
     io::write_file_atomically(
         (std::filesystem::path(options.job.output_dir) / "temporal.json").string(),
         [&](std::ostream& out) { out << text; });
@@ -212,9 +242,11 @@ void add_sequence_eval_options(CLI::App* cmd, EvalCommandOptions& options) {
       "--sequence", options.sequence,
       "score the temporal stability of a predicted sequence (the --out of predict --sequence) "
       "against --truth: the mean over consecutive frames of the median relative change of a "
-      "static point's distance (docs/EVALUATION.md)");
+      "static point's distance (docs/EVALUATION.md); a rig's video (predict --rig --sequence) "
+      "per camera against synth --rig --path's set, and their mean (docs/RIG.md)");
   cmd->add_option("--truth", options.truth,
-                  "--sequence: the camera path it was predicted from (synth --path's OUT); --rig: "
+                  "--sequence: the camera path it was predicted from (synth --path's OUT, or "
+                  "synth --rig --path's for a rig's video); --rig: "
                   "TRUTH/<frame>/<camera>/distance.npy (default FRAMES/../truth)");
   for (const char* other :
        {"--model", "--random-model", "--predictions", "--baseline", "--data", "--suite"})

@@ -1,6 +1,7 @@
 // omnipoint predict: binds the options of predict::PredictJob (omnipoint/predict/predict_job.h),
-// with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h), or with
-// --sequence those of predict::SequencePredictJob (omnipoint/predict/sequence_predict_job.h), and
+// with --rig those of predict::RigPredictJob (omnipoint/predict/rig_predict_job.h; with
+// --sequence too, the rig's video), or with --sequence alone those of
+// predict::SequencePredictJob (omnipoint/predict/sequence_predict_job.h), and
 // prints what it reports: a bad image or sparse-depth file skips that image with one line
 // on stderr; inputs that look wrong get a warning line; the run ends with a summary that counts
 // both, and a non-zero status when an image failed. --view then serves the outputs.
@@ -70,6 +71,8 @@ void run_rig_predict(const PredictCommandOptions& options) {
   rig.edge_rtol = job.edge_rtol;
   rig.output_dir = job.output_dir;
   rig.output_files = job.output_files;
+  rig.sequence = options.sequence;
+  rig.scale = predict::parse_scale_mode(options.scale);
   RigPredictReports reports;
   const predict::RigPredictJobSummary summary = predict::RigPredictJob(rig, &reports).Run();
   if (summary.failed > 0)
@@ -143,23 +146,27 @@ void add_sequence_options(CLI::App* command, PredictCommandOptions& options) {
       "The one input is a folder of one camera's frames (a video's), in name order: one camera "
       "for all (--camera, else calibrated from the first frames), a metric scale that follows a "
       "running estimate (--scale), frames written as they finish; a rerun into the same --out "
-      "resumes where an interrupted one stopped");
+      "resumes where an interrupted one stopped. With --rig: the frames folder is the rig's "
+      "video, the rig scale follows the running estimate (docs/RIG.md)");
   CLI::Option* calibration = command
                                  ->add_option("--calibration-frames", options.calibration_frames,
                                               "--sequence: the first frames the camera (without "
-                                              "--camera) and the fixed scale come from")
+                                              "--camera) and the fixed scale come from (not with "
+                                              "--rig: the rig gives the cameras)")
                                  ->capture_default_str();
   CLI::Option* scale =
       command
           ->add_option("--scale", options.scale,
                        "--sequence: the applied metric scale: fixed (the calibration frames' "
-                       "median), smooth (a robust running estimate in log space, "
-                       "predict/sequence_predict_job.h) or per-frame (the network's own)")
+                       "median; with --rig the first frame's rig scale), smooth (a robust running "
+                       "estimate in log space, predict/scale_smoother.h) or per-frame (the "
+                       "network's own; with --rig each frame's rig scale)")
           ->capture_default_str()
           ->check(CLI::IsMember({"fixed", "smooth", "per-frame"}));
   calibration->needs(sequence);
+  calibration->excludes("--rig");
   scale->needs(sequence);
-  for (const char* other : {"--rig", "--fov", "--colmap", "--sparse-depth", "--sparse-depth-radial",
+  for (const char* other : {"--fov", "--colmap", "--sparse-depth", "--sparse-depth-radial",
                             "--lidar-to-camera", "--fit-model"})
     sequence->excludes(other);
 }

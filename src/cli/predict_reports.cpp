@@ -64,6 +64,13 @@ void RigPredictReports::frame_written(const predict::RigFrameResult& frame) {
   progress_->line(progress_->prefix() + predict::describe(frame));
 }
 
+void RigPredictReports::frame_resumed(size_t /*index*/, const std::string& frame,
+                                      double rig_scale) {
+  progress_->line(progress_->prefix() + "frame " + frame +
+                  ": finished by an earlier run, not redone (rig scale " +
+                  std::to_string(rig_scale) + ")");
+}
+
 void RigPredictReports::frame_failed(const std::string& frame, const std::string& error) {
   progress_->line("omnipoint: error: " + progress_->prefix() + "skipped frame " + frame + ": " +
                   error);
@@ -75,8 +82,10 @@ void RigPredictReports::frame_done(size_t /*index*/) {
 
 void RigPredictReports::finished(const predict::RigPredictJobSummary& summary) {
   progress_->line(std::to_string(summary.frames) + " frame(s): " + std::to_string(summary.written) +
-                  " written, " + std::to_string(summary.failed) + " failed, " +
-                  std::to_string(summary.warnings) + " warning(s)");
+                  " written, " +
+                  (summary.resumed > 0 ? std::to_string(summary.resumed) + " resumed, " : "") +
+                  std::to_string(summary.failed) + " failed, " + std::to_string(summary.warnings) +
+                  " warning(s)");
 }
 
 void SequencePredictReports::start(const predict::ImageList& frames) {

@@ -37,6 +37,7 @@ class RigPredictReports : public predict::RigPredictJobObserver {
   void frame_started(size_t index, const std::string& frame) override;
   void warning(const std::string& frame, const std::string& text) override;
   void frame_written(const predict::RigFrameResult& frame) override;
+  void frame_resumed(size_t index, const std::string& frame, double rig_scale) override;
   void frame_failed(const std::string& frame, const std::string& error) override;
   void frame_done(size_t index) override;
   void finished(const predict::RigPredictJobSummary& summary) override;

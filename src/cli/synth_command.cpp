@@ -127,7 +127,8 @@ void render_kitti_raw(const SynthArgs& args) {
 }
 
 // --count frames of a rig (--rig): OUT/rig.json, OUT/frames/<frame>/<camera>.png [lidar.bin],
-// OUT/truth/<frame>/<camera>/; resumes where an earlier run stopped.
+// OUT/truth/<frame>/<camera>/; with --path the body moves through one scene; resumes where an
+// earlier run stopped.
 void render_rig_frames(const SynthArgs& args) {
   if (!args.camera.empty() || !args.benchmark.empty() || args.kitti_raw)
     throw std::invalid_argument(
@@ -146,6 +147,9 @@ void render_rig_frames(const SynthArgs& args) {
   options.render.lidar_pattern.min_elevation_deg = args.lidar_elevation[0];
   options.render.lidar_pattern.max_elevation_deg = args.lidar_elevation[1];
   options.render.lidar_range = args.lidar_range;
+  options.path = args.path;
+  options.path_step = args.path_step;
+  options.path_yaw_deg = args.path_yaw_deg;
   const auto start = std::chrono::steady_clock::now();
   const data::synth::RigFramesSummary summary = data::synth::write_rig_frames(
       args.out, options, [](const std::string& frame) { std::cout << frame << "\n"; });
@@ -155,7 +159,8 @@ void render_rig_frames(const SynthArgs& args) {
   if (summary.kept > 0) std::cerr << ", " << summary.kept << " already there";
   if (args.lidar_sweep) std::cerr << ", " << summary.lidar_points << " LiDAR returns";
   std::cerr << " in " << seconds << " s; predict with: omnipoint predict --rig " << args.out
-            << "/rig.json " << args.out << "/frames --out PREDICTIONS\n";
+            << "/rig.json " << args.out << "/frames" << (args.path ? " --sequence" : "")
+            << " --out PREDICTIONS\n";
 }
 
 // --count frames of a camera path through the scene of --scene and --seed.
@@ -200,7 +205,9 @@ void add_camera_path_options(CLI::App* cmd, SynthArgs& args) {
                 "write a camera path through one scene (--scene, --seed): --count frames moving "
                 "--path-step metres forward and turning --path-yaw degrees per frame, as "
                 "OUT/frames/*.png (predict --sequence) and OUT/truth/<frame>/ (samples with "
-                "their poses; eval --sequence) (default camera PINHOLE 128 96 80 80 64 48)");
+                "their poses; eval --sequence) (default camera PINHOLE 128 96 80 80 64 48); with "
+                "--rig the rig's body moves so through the one scene of --seed (predict --rig "
+                "--sequence)");
   cmd->add_option("--path-step", args.path_step, "--path: metres per frame along the view")
       ->capture_default_str();
   cmd->add_option("--path-yaw", args.path_yaw_deg, "--path: degrees per frame, turning left")
@@ -271,9 +278,9 @@ void add_synth_command(CLI::App& app) {
   add_threads_option(cmd, &args->threads);
   cmd->callback([args] {
     use_threads(args->threads);
-    if (args->path) {
-      if (!args->benchmark.empty() || args->kitti_raw || !args->rig.empty())
-        throw std::invalid_argument("--path: not with --benchmark, --kitti-raw or --rig");
+    if (args->path && args->rig.empty()) {
+      if (!args->benchmark.empty() || args->kitti_raw)
+        throw std::invalid_argument("--path: not with --benchmark or --kitti-raw");
       render_camera_path(*args);
       return;
     }

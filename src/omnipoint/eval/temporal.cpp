@@ -2,6 +2,8 @@
 
 #include <ATen/ATen.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <optional>
@@ -11,6 +13,7 @@
 #include "omnipoint/data/sample.h"
 #include "omnipoint/data/synth/camera_path.h"
 #include "omnipoint/io/npy.h"
+#include "omnipoint/io/rig.h"
 
 namespace omnipoint::eval {
 
@@ -98,27 +101,77 @@ TemporalStability temporal_stability(const std::vector<SequenceFrame>& frames,
   return stability;
 }
 
+namespace {
+
+// A predicted frame (PREDICTIONS/.../points.npy, valid where non-zero) with its true pose; the
+// camera is the first frame's truth camera at the predictions' size.
+SequenceFrame read_predicted_frame(const std::filesystem::path& file, const std::string& truth,
+                                   const at::Tensor& world_from_camera,
+                                   std::optional<camera::Camera>& camera) {
+  if (!std::filesystem::is_regular_file(file))
+    throw std::invalid_argument(file.string() + ": no predicted points for the frame of " + truth);
+  const at::Tensor points = io::read_npy(file.string()).to(at::kFloat);
+  if (points.dim() != 3 || points.size(2) != 3)
+    throw std::invalid_argument(file.string() + ": expected (H, W, 3) points");
+  if (!camera) camera = data::read_sample(truth).camera.resized(points.size(1), points.size(0));
+  if (points.size(0) != camera->height() || points.size(1) != camera->width())
+    throw std::invalid_argument(file.string() + ": the frames differ in size");
+  return {points, (points != 0).any(-1), world_from_camera};
+}
+
+}  // namespace
+
 TemporalStability score_predicted_sequence(const std::string& predictions,
                                            const std::string& truth) {
   const std::vector<data::synth::CameraPathFrame> path = data::synth::read_camera_path(truth);
   std::vector<SequenceFrame> frames;
   std::optional<camera::Camera> camera;
-  for (const data::synth::CameraPathFrame& frame : path) {
-    const std::filesystem::path file =
-        std::filesystem::path(predictions) / frame.name / "points.npy";
-    if (!std::filesystem::is_regular_file(file))
-      throw std::invalid_argument(file.string() + ": no predicted points for frame " + frame.name +
-                                  " of " + truth);
-    const at::Tensor points = io::read_npy(file.string()).to(at::kFloat);
-    if (points.dim() != 3 || points.size(2) != 3)
-      throw std::invalid_argument(file.string() + ": expected (H, W, 3) points");
-    if (!camera)
-      camera = data::read_sample(frame.truth).camera.resized(points.size(1), points.size(0));
-    if (points.size(0) != camera->height() || points.size(1) != camera->width())
-      throw std::invalid_argument(file.string() + ": the frames differ in size");
-    frames.push_back({points, (points != 0).any(-1), frame.world_from_camera});
-  }
+  for (const data::synth::CameraPathFrame& frame : path)
+    frames.push_back(
+        read_predicted_frame(std::filesystem::path(predictions) / frame.name / "points.npy",
+                             frame.truth, frame.world_from_camera, camera));
   return temporal_stability(frames, *camera);
+}
+
+bool is_rig_truth(const std::string& truth) {
+  return std::filesystem::is_regular_file(std::filesystem::path(truth) / "rig.json");
+}
+
+RigTemporalStability score_predicted_rig_sequence(const std::string& predictions,
+                                                  const std::string& truth) {
+  namespace fs = std::filesystem;
+  const io::Rig rig = io::read_rig((fs::path(truth) / "rig.json").string());
+  std::vector<std::string> names;  // the frames: truth/<frame>/, in name order
+  if (fs::is_directory(fs::path(truth) / "truth"))
+    for (const auto& entry : fs::directory_iterator(fs::path(truth) / "truth"))
+      if (entry.is_directory() && entry.path().filename().string().front() != '.')
+        names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  if (names.size() < 2)
+    throw std::invalid_argument(truth +
+                                ": a rig's video has at least 2 frames in truth/ (`omnipoint "
+                                "synth --rig --path` writes them)");
+  RigTemporalStability result;
+  double sum = 0;
+  int counted = 0;
+  for (const io::RigCamera& rig_camera : rig.cameras) {
+    std::vector<SequenceFrame> frames;
+    std::optional<camera::Camera> camera;
+    for (const std::string& name : names) {
+      const std::string folder = (fs::path(truth) / "truth" / name / rig_camera.name).string();
+      frames.push_back(
+          read_predicted_frame(fs::path(predictions) / name / rig_camera.name / "points.npy",
+                               folder, data::synth::read_sample_pose(folder), camera));
+    }
+    TemporalStability stability = temporal_stability(frames, *camera);
+    if (std::isfinite(stability.error)) {
+      sum += stability.error;
+      ++counted;
+    }
+    result.cameras.emplace_back(rig_camera.name, std::move(stability));
+  }
+  result.error = counted > 0 ? sum / counted : std::numeric_limits<double>::quiet_NaN();
+  return result;
 }
 
 }  // namespace omnipoint::eval

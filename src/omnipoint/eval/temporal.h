@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "omnipoint/camera/camera.h"
@@ -52,5 +53,24 @@ TemporalStability temporal_stability(const std::vector<SequenceFrame>& frames,
 // of another shape.
 TemporalStability score_predicted_sequence(const std::string& predictions,
                                            const std::string& truth);
+
+// A rig's video: each camera of the rig scored as one camera's sequence.
+struct RigTemporalStability {
+  double error = 0;  // the mean of the cameras' errors that are numbers (else NaN)
+  std::vector<std::pair<std::string, TemporalStability>> cameras;  // in the rig's order
+};
+
+// `omnipoint eval --sequence PREDICTIONS --truth SET` for a rig's video: the frames of
+// `synth --rig --path` (SET/rig.json, SET/truth/<frame>/<camera>/ with each camera's true pose
+// and camera) as `predict --rig SET/rig.json SET/frames --sequence --out PREDICTIONS` wrote them
+// (PREDICTIONS/<frame>/<camera>/points.npy, in the camera's frame at the applied scale). Each
+// camera's frames are scored as above through its own true poses: a rig scale that jumps moves
+// every camera's distances with it, so each camera's error is the rig's stability as that camera
+// sees the static scene (the fused cloud is these clouds in the body frame). A camera missing
+// from a frame's truth or predictions is std::invalid_argument naming the file.
+RigTemporalStability score_predicted_rig_sequence(const std::string& predictions,
+                                                  const std::string& truth);
+// Whether `truth` is a rendered rig's set (it holds rig.json), not a camera path.
+bool is_rig_truth(const std::string& truth);
 
 }  // namespace omnipoint::eval

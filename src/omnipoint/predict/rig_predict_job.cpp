@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -124,6 +126,48 @@ struct CameraImage {
   at::Tensor image;  // (H, W, 3) float32 at the network's size
 };
 
+// One frame folder read and decoded (ahead of the network, on another thread): what
+// predict_frame needs, the warnings in the order they were found, and the error that stopped
+// the reading (after those warnings).
+struct FrameInput {
+  RigFrameResult frame;  // its name, folder, missing cameras and sweep file
+  std::vector<CameraImage> images;
+  at::Tensor sweep;  // (N, 3) in the LiDAR's frame; undefined when none
+  std::vector<std::string> warnings;
+  std::exception_ptr error;
+};
+
+// What an earlier sequence run recorded of a finished frame (its rig.json's sequence record).
+struct FinishedFrame {
+  double rig_scale = 0;        // applied
+  double frame_rig_scale = 0;  // the frame's own, what the running estimate was fed
+};
+
+// The finished frame's record in `folder`, or nullopt when the folder is not a finished frame
+// of a rig sequence (it is predicted again and replaced). A record of another scale mode is an
+// error: the estimate cannot continue it.
+std::optional<FinishedFrame> finished_frame(const fs::path& folder, ScaleMode mode) {
+  const fs::path file = folder / "rig.json";
+  if (!fs::is_regular_file(file)) return std::nullopt;
+  json record;
+  try {
+    record = json::parse(io::read_file(file.string())).at("sequence");
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  const std::string recorded = record.value("scale_mode", "");
+  if (recorded != scale_mode_name(mode))
+    throw std::invalid_argument(
+        "--out " + folder.parent_path().string() + " holds frames of a --scale " + recorded +
+        " run (" + file.string() + "): rerun with --scale " + recorded + " or use another --out");
+  try {
+    return FinishedFrame{record.at("rig_scale").get<double>(),
+                         record.at("frame_rig_scale").get<double>()};
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
 // One Run(): the rig, the frames, the predictor, the counts.
 class JobRun {
  public:
@@ -132,7 +176,10 @@ class JobRun {
   RigPredictJobSummary run();
 
  private:
-  RigFrameResult predict_frame(const std::string& name);
+  void read_frame(const std::string& name, FrameInput& input) const;
+  RigFrameResult predict_frame(FrameInput input);
+  SequenceScale advanced_scale(double own, double& applied) const;
+  void follow_sequence(RigFrameResult& frame);
   std::vector<OverlapCamera> overlap_cameras(const RigFrameResult& frame) const;
   void set_scales(RigFrameResult& frame) const;
   void write_frame(RigFrameResult& frame, const std::vector<CameraImage>& images) const;
@@ -148,19 +195,26 @@ class JobRun {
   int64_t lidar_floats_per_point_ = 4;
   RigCameraPredictor predictor_;
   RigPredictJobSummary summary_;
+  // With sequence: the frames, the one being predicted, the running rig scale (the frames
+  // written or resumed so far) and what it becomes once the frame being predicted is written.
+  size_t frame_count_ = 0;
+  size_t frame_index_ = 0;
+  std::optional<SequenceScale> sequence_scale_;
+  std::optional<SequenceScale> sequence_scale_after_;
 };
 
-RigFrameResult JobRun::predict_frame(const std::string& name) {
-  const fs::path folder = fs::path(options_.frames_dir) / name;
-  const FrameFiles files = frame_files(folder, rig_);
-  RigFrameResult frame;
+// Reads frame `name` into `input` (a throw leaves the warnings found before it there).
+void JobRun::read_frame(const std::string& name, FrameInput& input) const {
+  RigFrameResult& frame = input.frame;
   frame.name = name;
   frame.folder = (fs::path(options_.output_dir) / name).string();
+  const fs::path folder = fs::path(options_.frames_dir) / name;
+  const FrameFiles files = frame_files(folder, rig_);
   for (const fs::path& other : files.others)
-    warn(name, other.string() +
-                   ": neither an image of a rig camera nor lidar.<bin|ply|pcd>: "
-                   "ignored");
-  std::vector<CameraImage> images;
+    input.warnings.push_back(other.string() +
+                             ": neither an image of a rig camera nor lidar.<bin|ply|pcd>: "
+                             "ignored");
+  std::vector<CameraImage>& images = input.images;
   for (const io::RigCamera& camera : rig_.cameras) {
     const auto file = files.images.find(camera.name);
     if (file == files.images.end()) {
@@ -176,18 +230,27 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
     throw std::invalid_argument(folder.string() + ": no image of the rig's cameras (" +
                                 rig_.cameras.front().name + ".jpg, ...)");
   for (const std::string& missing : frame.missing_cameras)
-    warn(name, "camera " + missing + " has no image in " + folder.string() +
-                   ": the frame is predicted without it");
+    input.warnings.push_back("camera " + missing + " has no image in " + folder.string() +
+                             ": the frame is predicted without it");
 
-  at::Tensor sweep;  // (N, 3) in the LiDAR's frame
   const std::optional<fs::path> lidar = options_.lidar ? files.lidar : std::nullopt;
   if (lidar && !rig_.lidar) {
-    warn(name,
-         lidar->string() + ": the rig file has no lidar (body_from_lidar): the sweep is not used");
+    input.warnings.push_back(lidar->string() +
+                             ": the rig file has no lidar (body_from_lidar): the sweep is not "
+                             "used");
   } else if (lidar) {
-    sweep = io::read_point_cloud(lidar->string(), lidar_floats_per_point_, "LiDAR sweep");
+    input.sweep = io::read_point_cloud(lidar->string(), lidar_floats_per_point_, "LiDAR sweep");
     frame.lidar = lidar->string();
   }
+}
+
+RigFrameResult JobRun::predict_frame(FrameInput input) {
+  RigFrameResult& frame = input.frame;
+  const std::string& name = frame.name;
+  for (const std::string& warning : input.warnings) warn(name, warning);
+  if (input.error) std::rethrow_exception(input.error);
+  const std::vector<CameraImage>& images = input.images;
+  const at::Tensor& sweep = input.sweep;
 
   for (const CameraImage& image : images) {
     PredictOptions item;
@@ -213,8 +276,41 @@ RigFrameResult JobRun::predict_frame(const std::string& name) {
     frame.cameras.push_back(std::move(result));
   }
   set_scales(frame);
+  follow_sequence(frame);
   write_frame(frame, images);
   return frame;
+}
+
+// The running rig scale after a frame whose own rig scale is `own` (--scale fixed: the first
+// frame's); `applied` gets the frame's applied rig scale.
+SequenceScale JobRun::advanced_scale(double own, double& applied) const {
+  SequenceScale state = sequence_scale_ ? *sequence_scale_ : SequenceScale(options_.scale, own);
+  applied = state.next(own);
+  return state;
+}
+
+// With sequence: the rig scale follows the running estimate unless it was measured (see the
+// header); the cameras keep their factors relative to it.
+void JobRun::follow_sequence(RigFrameResult& frame) {
+  frame.frame_rig_scale = frame.rig_scale;
+  if (!options_.sequence) return;
+  const double own = frame.rig_scale;
+  double applied = own;
+  sequence_scale_after_ = advanced_scale(own, applied);
+  const bool measured =
+      std::any_of(frame.cameras.begin(), frame.cameras.end(),
+                  [](const RigCameraResult& camera) { return camera.scale_source == "lidar"; });
+  if (measured || applied == own) return;
+  const double factor = applied / own;
+  frame.rig_scale = applied;
+  for (RigCameraResult& camera : frame.cameras) {
+    camera.scale *= factor;
+    camera.applied_scale *= factor;
+    rescale(camera.prediction, factor);
+    camera.prediction.notes.push_back("the rig scale follows the sequence (--scale " +
+                                      std::string(scale_mode_name(options_.scale)) + "): " +
+                                      number(applied) + " (the frame's own " + number(own) + ")");
+  }
 }
 
 // The overlap rule's view of the frame's predictions, at their current scales.
@@ -297,6 +393,9 @@ std::string JobRun::rig_json(const RigFrameResult& frame) const {
   std::string rule = any_source("lidar") ? "median of the LiDAR-aligned cameras' scales"
                                          : "median of the cameras' scales";
   if (any_source("overlap")) rule += ", the others reconciled where their views overlap";
+  if (options_.sequence && !any_source("lidar"))
+    rule += "; the rig scale follows the sequence (--scale " +
+            std::string(scale_mode_name(options_.scale)) + ")";
   json overlaps = json::array();
   for (const OverlapPair& pair : frame.overlaps)
     overlaps.push_back({{"camera", frame.cameras[pair.i].name},
@@ -315,6 +414,12 @@ std::string JobRun::rig_json(const RigFrameResult& frame) const {
       {"fused_points", frame.fused_points},
       {"cameras", cameras},
       {"overlaps", overlaps}};
+  if (options_.sequence)
+    report["sequence"] = {{"frame_index", frame_index_},
+                          {"frames", frame_count_},
+                          {"scale_mode", scale_mode_name(options_.scale)},
+                          {"rig_scale", frame.rig_scale},
+                          {"frame_rig_scale", frame.frame_rig_scale}};
   return report.dump(2) + "\n";
 }
 
@@ -359,6 +464,12 @@ RigPredictJobSummary JobRun::run() {
     lidar_floats_per_point_ = rig_.lidar->floats_per_point;
   const std::vector<std::string> frames = list_frames(options_.frames_dir);
   summary_.frames = static_cast<int64_t>(frames.size());
+  frame_count_ = frames.size();
+  std::map<size_t, FinishedFrame> finished;  // with sequence: by an earlier run
+  if (options_.sequence)
+    for (size_t i = 0; i < frames.size(); ++i)
+      if (auto frame = finished_frame(fs::path(options_.output_dir) / frames[i], options_.scale))
+        finished.emplace(i, *frame);
   predictor_ = options_.predictor;
   if (!predictor_) {
     const Model model = Model::load(options_.model_path, options_.device);
@@ -368,10 +479,41 @@ RigPredictJobSummary JobRun::run() {
   }
 
   observer_.start(rig_, frames);
+  // The next unfinished frame is read while the network runs on this one.
+  const auto next_to_predict = [&](size_t from) {
+    while (from < frames.size() && finished.count(from) > 0) ++from;
+    return from;
+  };
+  const auto read_async = [&](size_t index) {
+    return std::async(std::launch::async, [this, &frames, index] {
+      FrameInput input;
+      try {
+        read_frame(frames[index], input);
+      } catch (...) {
+        input.error = std::current_exception();
+      }
+      return input;
+    });
+  };
+  std::future<FrameInput> upcoming;
+  if (const size_t first = next_to_predict(0); first < frames.size()) upcoming = read_async(first);
   for (size_t i = 0; i < frames.size(); ++i) {
     observer_.frame_started(i, frames[i]);
+    if (const auto done = finished.find(i); done != finished.end()) {
+      double applied = 0;
+      sequence_scale_ = advanced_scale(done->second.frame_rig_scale, applied);
+      ++summary_.resumed;
+      observer_.frame_resumed(i, frames[i], done->second.rig_scale);
+      observer_.frame_done(i);
+      continue;
+    }
     try {
-      const RigFrameResult frame = predict_frame(frames[i]);
+      std::future<FrameInput> current = std::exchange(upcoming, {});
+      if (const size_t next = next_to_predict(i + 1); next < frames.size())
+        upcoming = read_async(next);
+      frame_index_ = i;
+      const RigFrameResult frame = predict_frame(current.get());
+      if (sequence_scale_after_) sequence_scale_ = std::exchange(sequence_scale_after_, {});
       ++summary_.written;
       observer_.frame_written(frame);
     } catch (const std::exception& e) {
@@ -407,6 +549,8 @@ std::string describe(const RigFrameResult& frame) {
                      std::to_string(frame.cameras.size()) + " camera(s), " +
                      std::to_string(frame.fused_points) + " points in the body frame, rig scale " +
                      number(frame.rig_scale, 4);
+  if (frame.frame_rig_scale != frame.rig_scale)
+    text += " (the frame's own " + number(frame.frame_rig_scale, 4) + ")";
   if (!frame.lidar.empty()) text += ", LiDAR " + fs::path(frame.lidar).filename().string();
   if (frame.overlap_residual)
     text += ", overlap residual " + number(100 * *frame.overlap_residual, 3) + "%";

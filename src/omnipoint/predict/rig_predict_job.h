@@ -16,7 +16,8 @@
 //                "disagreement", "applied_scale", "sparse_samples", "image",
 //                "body_from_camera"}}, "overlaps": [{"camera", "sees", "pixels", "inliers",
 //                "log_ratio", "residual"}]}
-// The frame's folder appears complete or not at all (io::StagedFolder).
+// The frame's folder appears complete or not at all (io::StagedFolder). The next frame's images
+// and sweep are decoded while the network runs on this one.
 //
 // One scale for the rig. A camera's scale is the factor that took its network distances to
 // metres: the network's metric scale times the alignment to the sweep's points in its view
@@ -41,6 +42,21 @@
 //   options.output_dir = "rig_predictions";
 //   omnipoint::predict::RigPredictJob(options, &observer).Run();
 //
+// A sequence (`--sequence`, RigPredictJobOptions::sequence): the frames are one rig's video. The
+// rule above gives each frame its own rig scale and each camera's scale relative to it; the rig
+// scale then follows the sequence (SequenceScale, scale_smoother.h: fixed, smooth or per-frame,
+// fed the frames' own rig scales in frame order; fixed: the first written frame's). In a frame
+// without LiDAR-aligned cameras every camera's scale is multiplied by applied / own rig scale
+// (the cameras keep their factors relative to the rig scale); a frame with LiDAR-aligned
+// cameras has a measured rig scale and keeps it (a measured scale is not smoothed), but still
+// feeds the running estimate. rig.json gains
+//   "sequence": {"frame_index", "frames", "scale_mode", "rig_scale", "frame_rig_scale"}
+// (the applied rig scale beside the frame's own; the top-level "rig_scale" and the cameras'
+// "scale" are the applied ones). A frame whose folder holds a rig.json with that record is
+// finished: a rerun into the same OUT does not redo it (RigPredictJobObserver::frame_resumed),
+// and its recorded frame_rig_scale is fed to the running estimate in its turn, so the estimate
+// continues exactly as in an uninterrupted run. An OUT of another --scale mode is an error.
+//
 // A camera without an image in a frame is a warning (the frame is predicted without it), as is
 // a file of a frame folder that is neither a camera's image nor the sweep. A frame that cannot
 // be predicted (none of the rig's cameras, an unreadable image, two images for one camera, a bad
@@ -63,6 +79,7 @@
 #include "omnipoint/predict/outputs.h"
 #include "omnipoint/predict/predictor.h"
 #include "omnipoint/predict/rig_overlap.h"
+#include "omnipoint/predict/scale_smoother.h"
 
 namespace omnipoint::predict {
 
@@ -94,6 +111,9 @@ struct RigPredictJobOptions {
   // The scales.
   bool lidar = true;    // use the frames' sweeps; false: predict as if they had none
   bool overlap = true;  // reconcile LiDAR-less cameras from their overlaps; false: median rule
+  // The sequence (see the top).
+  bool sequence = false;  // the frames are one rig's video: running rig scale, resume
+  ScaleMode scale = ScaleMode::kSmooth;  // with sequence: how the rig scale follows the frames
   // Outputs.
   std::string output_dir = "predictions";  // OUT: one folder per frame below it
   std::set<std::string> output_files = default_output_files();  // per camera (outputs.h)
@@ -118,6 +138,7 @@ struct RigFrameResult {
   std::string name;                        // the frame folder's name
   std::string folder;                      // OUT/<frame>
   double rig_scale = 1;                    // the median of the cameras' scales (see the top)
+  double frame_rig_scale = 1;              // the frame's own; rig_scale differs with sequence
   std::optional<double> overlap_residual;  // see the top; unset when no pair overlaps
   std::vector<OverlapPair> overlaps;       // the counted pairs (indices into `cameras`)
   std::string lidar;                       // the sweep file, "" when none
@@ -129,13 +150,14 @@ struct RigFrameResult {
 struct RigPredictJobSummary {
   int64_t frames = 0;    // found
   int64_t written = 0;   // frame folders written
+  int64_t resumed = 0;   // with sequence: finished by an earlier run, not redone
   int64_t failed = 0;    // skipped on an error
   int64_t warnings = 0;  // about the frames
 };
 
 // What a job reports while it runs; every hook does nothing unless overridden. Calls come from
-// the thread that runs the job, in this order: start, then per frame frame_started, its
-// warnings, frame_written or frame_failed, frame_done; finished.
+// the thread that runs the job, in this order: start, then per frame frame_started, then
+// frame_resumed, or its warnings and frame_written, or frame_failed; frame_done; finished.
 class RigPredictJobObserver {
  public:
   virtual ~RigPredictJobObserver() = default;
@@ -146,6 +168,10 @@ class RigPredictJobObserver {
   // camera's prediction warnings); the frame is still predicted.
   virtual void warning(const std::string& /*frame*/, const std::string& /*text*/) {}
   virtual void frame_written(const RigFrameResult& /*frame*/) {}
+  // With sequence: the frame's folder was finished by an earlier run (its applied rig scale);
+  // it is not redone.
+  virtual void frame_resumed(size_t /*index*/, const std::string& /*frame*/, double /*rig_scale*/) {
+  }
   // The frame is skipped: `error` says why; nothing was written for it.
   virtual void frame_failed(const std::string& /*frame*/, const std::string& /*error*/) {}
   virtual void frame_done(size_t /*index*/) {}

@@ -12,8 +12,9 @@
 // and then conditions every frame as a given camera does (camera.json: "camera_source": "given", and the sequence record below says
 // "calibrated from N frames ...").
 //
-// The metric scale (SequenceScale) takes each frame's network scale in frame order; the scale
-// applied to a frame's outputs is its result. Each frame's camera.json records it
+// The metric scale (SequenceScale, scale_smoother.h) takes each frame's network scale in frame
+// order; the scale applied to a frame's outputs is its result. --scale fixed: the calibration
+// frames' median network scale (with the sequence's camera). Each frame's camera.json records it
 // ("metric_scale" and the record's) beside the network's own:
 //   "sequence": {"frame_index", "frames", "camera", "scale_mode", "metric_scale",
 //                "network_metric_scale"}
@@ -40,7 +41,6 @@
 #include <c10/core/Device.h>
 
 #include <cstdint>
-#include <deque>
 #include <set>
 #include <string>
 
@@ -48,49 +48,9 @@
 #include "omnipoint/predict/image_list.h"
 #include "omnipoint/predict/outputs.h"
 #include "omnipoint/predict/predict_job.h"
+#include "omnipoint/predict/scale_smoother.h"
 
 namespace omnipoint::predict {
-
-// `--scale`: how a frame's applied metric scale follows the network's.
-enum class ScaleMode {
-  kFixed,     // one scale for every frame: the calibration frames' median network scale (with
-              // the sequence's camera)
-  kSmooth,    // a robust running estimate (SequenceScale)
-  kPerFrame,  // each frame's own network scale (as `predict` does)
-};
-// "fixed", "smooth", "per-frame"; parse_scale_mode throws std::invalid_argument for others.
-const char* scale_mode_name(ScaleMode mode);
-ScaleMode parse_scale_mode(const std::string& name);
-
-// The running metric scale of a sequence: next() takes the network's scale of each frame in
-// frame order and returns the scale applied to it.
-//   per-frame  the network's own.
-//   fixed      `fixed_scale`, whatever the frame (the job's: the median network scale of the
-//              first calibration_frames frames predicted with the sequence's camera).
-//   smooth     in log space: a frame's log scale x_t is clipped to within kSmoothClip of the
-//              median of the last kSmoothWindow frames' log scales (its own included), y_t, and
-//              the estimate m_t = m_{t-1} + kSmoothGain (y_t - m_{t-1}), m_0 = y_0 = x_0; the
-//              applied scale is exp(m_t). One frame's jump moves the estimate by at most
-//              kSmoothGain * kSmoothClip (an outlier is rejected); a lasting change moves the
-//              window's median and is followed within a few frames.
-// The state is a function of the scales fed so far, so replaying a finished run's recorded
-// network scales restores it exactly.
-class SequenceScale {
- public:
-  static constexpr int kSmoothWindow = 9;
-  static constexpr double kSmoothClip = 0.18;  // log scale: about ±20 %
-  static constexpr double kSmoothGain = 0.25;
-
-  explicit SequenceScale(ScaleMode mode, double fixed_scale = 1.0);
-  // std::invalid_argument for a scale that is not positive and finite.
-  double next(double network_scale);
-
- private:
-  ScaleMode mode_;
-  double fixed_scale_;
-  std::deque<double> window_;  // the last kSmoothWindow log scales
-  double estimate_ = 0;        // m_t
-};
 
 struct SequencePredictJobOptions {
   // Inputs.

@@ -21,6 +21,14 @@
 
 namespace omnipoint::data::synth {
 
+// Frame `index`'s pose on a camera path from `start`: moved index * step metres along start's
+// viewing direction made level, turned index * yaw_step_deg degrees about the vertical (world
+// +z, turning left), height, pitch and roll kept. The path of `synth --path`, and of the body of
+// `synth --rig --path` (rig_render.h).
+Pose camera_path_pose(const Pose& start, int64_t index, double step, double yaw_step_deg);
+// std::invalid_argument, one line naming the option, for a step or turn no path takes.
+void check_path_motion(double step, double yaw_step_deg);
+
 struct CameraPathOptions {
   camera::Camera camera{"PINHOLE", 128, 96, {80, 80, 64, 48}};  // every frame's
   SceneKind scene = SceneKind::kIndoor;
@@ -48,5 +56,10 @@ struct CameraPathFrame {
 };
 // std::invalid_argument naming the file for a root that is not a camera path.
 std::vector<CameraPathFrame> read_camera_path(const std::string& root);
+
+// The camera-to-world pose (4, 4) float64 of a synthetic sample folder (its meta.json's
+// "pose": rotation, position), as camera paths and rendered rigs write it.
+// std::invalid_argument naming the file when it has none.
+at::Tensor read_sample_pose(const std::string& folder);
 
 }  // namespace omnipoint::data::synth

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "omnipoint/data/synth/camera_path.h"
 #include "omnipoint/data/synth/kitti_raw_drive.h"
 #include "omnipoint/io/atomic_file.h"
 #include "omnipoint/io/image.h"
@@ -139,6 +140,7 @@ void RigFramesOptions::Check() const {
     throw std::invalid_argument("--count " + std::to_string(frames) +
                                 ": expected 1 to 1000000 frames");
   render.Check();
+  if (path) check_path_motion(path_step, path_yaw_deg);
 }
 
 RigFramesSummary write_rig_frames(const std::string& out, const RigFramesOptions& options,
@@ -162,10 +164,14 @@ RigFramesSummary write_rig_frames(const std::string& out, const RigFramesOptions
       ++summary.kept;
       continue;
     }
-    const Scene scene = make_scene(options.scene, options.seed + static_cast<std::uint64_t>(k));
-    const RigRender render =
-        render_rig(scene, rig, world_from_body(scene, options.render.body_axes, options.render.yaw),
-                   options.render);
+    const Scene scene = make_scene(
+        options.scene, options.path ? options.seed : options.seed + static_cast<std::uint64_t>(k));
+    Scene viewpoint = scene;  // where the body stands
+    if (options.path)
+      viewpoint.pose = camera_path_pose(scene.pose, k, options.path_step, options.path_yaw_deg);
+    const RigRender render = render_rig(
+        scene, rig, world_from_body(viewpoint, options.render.body_axes, options.render.yaw),
+        options.render);
     io::StagedFolder truth(root / "truth" / name);
     for (const RigCameraRender& camera : render.cameras)
       write_synth_sample((truth.path() / camera.name).string(), camera.synth);

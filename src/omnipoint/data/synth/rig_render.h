@@ -70,7 +70,10 @@ RigRender render_rig(const Scene& scene, const io::Rig& rig, const at::Tensor& w
 void write_lidar_sweep(const std::string& path, const at::Tensor& points, int64_t floats_per_point);
 
 // A set of rendered rig frames (`omnipoint synth --rig`): frame k is the scene of seed + k
-// with the body at its viewpoint, written under OUT as
+// with the body at its viewpoint, or with `path` (`synth --rig --path`, the rig's video) the one
+// scene of seed with the body moving along a camera path from its viewpoint (camera_path.h:
+// camera_path_pose(viewpoint, k, path_step, path_yaw_deg), then the body's axes and yaw as
+// above), written under OUT as
 //   rig.json                         the rig (io::write_rig: the cameras as spec strings)
 //   frames/<frame>/<camera>.png      what `predict --rig OUT/rig.json OUT/frames` reads
 //   frames/<frame>/lidar.bin         the sweep (with lidar), in the rig's lidar format
@@ -86,6 +89,9 @@ struct RigFramesOptions {
   std::uint64_t seed = 0;                // frame k renders the scene of seed + k
   int64_t frames = 1;                    // how many
   RigRenderOptions render;               // the body's axes and yaw, render settings, LiDAR
+  bool path = false;                     // one scene, the body moving (see above)
+  double path_step = 0.05;               // with path: metres per frame along the view
+  double path_yaw_deg = 1.0;             // with path: degrees per frame, turning left
 
   // std::invalid_argument, one line naming the option, for a value out of range.
   void Check() const;
