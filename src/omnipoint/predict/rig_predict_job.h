@@ -15,7 +15,7 @@
 //                "missing_cameras", "fused_points", "cameras": {NAME: {"scale", "scale_source",
 //                "disagreement", "applied_scale", "sparse_samples", "image",
 //                "body_from_camera"}}, "overlaps": [{"camera", "sees", "pixels", "inliers",
-//                "log_ratio", "residual"}]}
+//                "log_ratio", "residual", "spread", "sigma", "weight"}]}
 // The frame's folder appears complete or not at all (io::StagedFolder).
 //
 // One scale for the rig. A camera's scale is the factor that took its network distances to
