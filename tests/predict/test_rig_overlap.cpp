@@ -102,7 +102,7 @@ TEST(RigOverlap, BringsWronglyScaledCamerasToOneScale) {
     SCOPED_TRACE(names[c]);
     EXPECT_TRUE(result.reconciled[c]);
     EXPECT_EQ(result.group[c], result.group[0]);
-    EXPECT_NEAR(wrong[c] * result.factors[c] / common, 1.0, 1e-3);
+    EXPECT_NEAR(wrong[c] * result.factors[c] / common, 1.0, 1e-4);
     std::printf("%s: wrong %.3f, corrected to %.6f\n", names[c].c_str(), wrong[c],
                 wrong[c] * result.factors[c]);
   }
