@@ -263,7 +263,7 @@ TEST(SynthRig, EvalScoresTheRulesAgainstTheTruth) {
       if (rule.name == "independent")  // the network's own scale: 1
         EXPECT_NEAR(camera.error, off.at(camera.name) - 1, 1e-4);
       else if (rule.name == "overlap")  // the truth
-        EXPECT_NEAR(camera.error, 0.0, 2e-3);
+        EXPECT_NEAR(camera.error, 0.0, 1e-5);
       else  // a 16-beam sweep from the roof: few returns, and parallax (returns the camera
             // does not see land on what it sees in front of them)
         EXPECT_NEAR(camera.error, 0.0, 0.15);
@@ -272,7 +272,7 @@ TEST(SynthRig, EvalScoresTheRulesAgainstTheTruth) {
       EXPECT_NEAR(frame.spread, 1.25 / 0.8 - 1, 1e-4);
       EXPECT_NEAR(*frame.overlap_residual, 0.25, 0.05);
     } else if (rule.name == "overlap") {
-      EXPECT_LT(frame.spread, 4e-3);
+      EXPECT_LT(frame.spread, 1e-5);
       EXPECT_LT(*frame.overlap_residual, 1e-3);
     } else {
       EXPECT_LT(frame.spread, 0.2);

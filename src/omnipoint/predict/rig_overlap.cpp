@@ -89,6 +89,7 @@ at::Tensor pair_log_ratios(const OverlapCamera& ci, const Pose& pi, double fi,
 struct PairMeasure {
   int64_t pixels = 0, inliers = 0;
   double log_ratio = 0;
+  double spread = 0;  // 1.4826 x the inliers' median absolute deviation from log_ratio
   at::Tensor ratios;  // the pixels' log ratios
 };
 
@@ -101,6 +102,7 @@ PairMeasure measure(const at::Tensor& ratios, double band) {
   const at::Tensor within = ratios.index({(ratios - first).abs() <= band});
   m.inliers = within.numel();
   m.log_ratio = m.inliers > 0 ? within.median().item<double>() : first;
+  if (m.inliers > 0) m.spread = 1.4826 * (within - m.log_ratio).abs().median().item<double>();
   return m;
 }
 
@@ -112,20 +114,33 @@ PairMeasure measure_pair(const std::vector<OverlapCamera>& cameras, const std::v
                  band);
 }
 
-// Fills result's factors, pairs and residual: the counted pairs measured at the final factors.
+// A pair's standard error (log). Its pixels' errors are correlated by rho: a part common to all of
+// them (the network's error over the region, rho of the variance) that their spread does not show,
+// and a part of their own (1 - rho: what the spread shows) that averages out over n pixels.
+double pair_sigma(const PairMeasure& m, const OverlapOptions& options) {
+  const double n = static_cast<double>(std::max<int64_t>(m.inliers, 1));
+  const double rho = options.pixel_correlation;
+  return std::max(m.spread, kOverlapMinSpread) * std::sqrt(rho / (1 - rho) + 1 / n);
+}
+
+// `weights`: the pairs' robust weights (empty: 1 each).
 void finish(const std::vector<OverlapCamera>& cameras, const std::vector<Pose>& poses,
             const std::vector<double>& log_factor,
-            const std::vector<std::pair<size_t, size_t>>& counted, double band,
-            OverlapResult& result) {
+            const std::vector<std::pair<size_t, size_t>>& counted, const OverlapOptions& options,
+            const std::vector<double>& weights, OverlapResult& result) {
   std::vector<at::Tensor> deviations;
-  for (const auto& [i, j] : counted) {
-    const PairMeasure m = measure_pair(cameras, poses, log_factor, i, j, band);
+  for (size_t k = 0; k < counted.size(); ++k) {
+    const auto [i, j] = counted[k];
+    const PairMeasure m = measure_pair(cameras, poses, log_factor, i, j, options.band);
     OverlapPair pair;
     pair.i = i;
     pair.j = j;
     pair.pixels = m.pixels;
     pair.inliers = m.inliers;
     pair.log_ratio = m.log_ratio;
+    pair.spread = m.spread;
+    pair.sigma = pair_sigma(m, options);
+    pair.weight = weights.empty() ? 1.0 : weights[k];
     if (m.pixels > 0) {
       const at::Tensor deviation = (m.ratios.exp() - 1).abs();
       pair.residual = deviation.median().item<double>();
@@ -154,6 +169,14 @@ void OverlapOptions::Check() const {
   if (free_group_scale && !(*free_group_scale > 0 && std::isfinite(*free_group_scale)))
     throw std::invalid_argument("overlap: free_group_scale " + std::to_string(*free_group_scale) +
                                 ": expected > 0");
+  if (!(prior_sigma > 0) || !std::isfinite(prior_sigma))
+    throw std::invalid_argument("overlap: prior_sigma " + std::to_string(prior_sigma) +
+                                ": expected > 0");
+  if (!(pixel_correlation >= 0 && pixel_correlation < 1))
+    throw std::invalid_argument("overlap: pixel_correlation " + std::to_string(pixel_correlation) +
+                                ": expected in [0, 1)");
+  if (!(huber > 0) || !std::isfinite(huber))
+    throw std::invalid_argument("overlap: huber " + std::to_string(huber) + ": expected > 0");
   if (max_iterations < 1)
     throw std::invalid_argument("overlap: max_iterations " + std::to_string(max_iterations) +
                                 ": expected >= 1");
@@ -202,7 +225,7 @@ OverlapResult measure_overlaps(const std::vector<OverlapCamera>& cameras,
   result.reconciled.assign(cameras.size(), false);
   result.group.assign(cameras.size(), -1);
   const std::vector<std::pair<size_t, size_t>> counted = counted_pairs(cameras, poses, options);
-  finish(cameras, poses, std::vector<double>(cameras.size(), 0.0), counted, options.band, result);
+  finish(cameras, poses, std::vector<double>(cameras.size(), 0.0), counted, options, {}, result);
   return result;
 }
 
@@ -220,7 +243,7 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
   result.reconciled.assign(n, false);
   result.group.assign(n, -1);
   if (counted.empty()) {
-    finish(cameras, poses, log_factor, counted, options.band, result);
+    finish(cameras, poses, log_factor, counted, options, {}, result);
     return result;
   }
 
@@ -258,41 +281,68 @@ OverlapResult reconcile_overlap_scales(const std::vector<OverlapCamera>& cameras
     }
   };
 
+  std::vector<double> weights(counted.size(), 1.0);  // the pairs' robust weights
   if (!free_cameras.empty()) {
-    std::vector<int64_t> column(n, -1);
-    for (size_t k = 0; k < free_cameras.size(); ++k)
-      column[free_cameras[k]] = static_cast<int64_t>(k);
+    // Unknowns: the free cameras' log factors, then one level per group that has free cameras
+    // (the priors are relative to it).
+    std::vector<int64_t> column(n, -1), level_column(n, -1);
+    int64_t unknowns = 0;
+    for (size_t c : free_cameras) column[c] = unknowns++;
+    for (size_t c : free_cameras)
+      if (level_column[result.group[c]] < 0) level_column[result.group[c]] = unknowns++;
+    const int64_t rows = static_cast<int64_t>(counted.size() + free_cameras.size());
     level_free_groups();
     for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-      std::vector<PairMeasure> measures;
-      measures.reserve(counted.size());
-      for (const auto& [i, j] : counted)
-        measures.push_back(measure_pair(cameras, poses, log_factor, i, j, options.band));
-      // Each pair wants log f_i − log f_j to move by −its log ratio; least squares, minimum norm
-      // (a free group's constant is the gauge, set by level_free_groups).
-      at::Tensor a = at::zeros(
-          {static_cast<int64_t>(counted.size()), static_cast<int64_t>(free_cameras.size())},
-          at::kDouble);
-      at::Tensor b = at::zeros({static_cast<int64_t>(counted.size())}, at::kDouble);
+      // Each pair asks log f_i - log f_j to move by -its log ratio (measured at the factors so
+      // far), weighted by its inverse variance (half: both orders see the same overlap) and its
+      // robust weight; each prior asks a camera's log factor to be its group's level.
+      at::Tensor a = at::zeros({rows, unknowns}, at::kDouble);
+      at::Tensor b = at::zeros({rows}, at::kDouble);
+      std::vector<double> target(counted.size()), sigma(counted.size());
       for (size_t k = 0; k < counted.size(); ++k) {
         const auto [i, j] = counted[k];
-        if (column[i] >= 0) a[k][column[i]] = 1.0;
-        if (column[j] >= 0) a[k][column[j]] = -1.0;
-        b[k] = -measures[k].log_ratio;
+        const PairMeasure m = measure_pair(cameras, poses, log_factor, i, j, options.band);
+        target[k] = log_factor[i] - log_factor[j] - m.log_ratio;
+        sigma[k] = pair_sigma(m, options);
+        const double root_weight = std::sqrt(0.5 * weights[k]) / sigma[k];
+        const auto row = static_cast<int64_t>(k);
+        double rhs = target[k];
+        if (column[i] >= 0)
+          a[row][column[i]] = root_weight;
+        else
+          rhs -= log_factor[i];  // an anchor's factor is fixed (1)
+        if (column[j] >= 0)
+          a[row][column[j]] = -root_weight;
+        else
+          rhs += log_factor[j];
+        b[row] = root_weight * rhs;
       }
-      const at::Tensor step = at::linalg_pinv(a).matmul(b);
-      double largest = 0;
       for (size_t k = 0; k < free_cameras.size(); ++k) {
-        const double delta = step[static_cast<int64_t>(k)].item<double>();
-        log_factor[free_cameras[k]] += delta;
-        largest = std::max(largest, std::abs(delta));
+        const size_t c = free_cameras[k];
+        const auto row = static_cast<int64_t>(counted.size() + k);
+        a[row][column[c]] = 1 / options.prior_sigma;
+        a[row][level_column[result.group[c]]] = -1 / options.prior_sigma;
       }
+      // Least squares, minimum norm: a group without an anchor keeps one free factor (the
+      // pairs and priors are relative), set by level_free_groups.
+      const at::Tensor solution = at::linalg_pinv(a).matmul(b);
+      const std::vector<double> before = log_factor;
+      for (size_t c : free_cameras) log_factor[c] = solution[column[c]].item<double>();
       level_free_groups();
+      double largest = 0;
+      for (size_t c : free_cameras)
+        largest = std::max(largest, std::abs(log_factor[c] - before[c]));
+      // Huber's weights from the pairs' residuals, in standard errors.
+      for (size_t k = 0; k < counted.size(); ++k) {
+        const auto [i, j] = counted[k];
+        const double residual = std::abs(log_factor[i] - log_factor[j] - target[k]) / sigma[k];
+        weights[k] = residual <= options.huber ? 1.0 : options.huber / residual;
+      }
       if (largest < options.tolerance) break;
     }
   }
 
-  finish(cameras, poses, log_factor, counted, options.band, result);
+  finish(cameras, poses, log_factor, counted, options, weights, result);
   return result;
 }
 

@@ -16,14 +16,31 @@
 // the first median (what i sees in front of j's surface — an occlusion — drops out); a pair
 // counts when at least `min_pixels` pixels are within the band.
 //
-// The cameras' log-scales are solved jointly, least squares over the counted pairs' log ratios
-// (each pair: log s_i - log s_j = -its log ratio). A camera's distance is measured from its own
-// centre, so a scale moves the other camera's view of a point by less than the scale; the
-// solution is iterated (each step re-measures the pairs at the scales so far) until the pairs'
-// ratios are 1. Anchored cameras (LiDAR-aligned: their scale was measured) do not move. A group of
-// cameras linked by counted pairs without an anchor is only determined up to one factor: its
-// level is OverlapOptions::free_group_scale, else the median of its cameras' corrections is 1
-// (each camera's own scale is one estimate of the group's level; the median of them decides).
+// A pair's log ratio is a measurement of log s_i - log s_j (its negative is what it asks of them),
+// with a standard error from its pixels. Their errors are correlated by `pixel_correlation` (rho):
+// a part common to all of them — the network's error over that region of the image, which the
+// pixels' spread does not show — and a part of each pixel's own, which the spread (1.4826 x the
+// inliers' median absolute deviation) shows and which averages out over the n inliers. The
+// standard error is therefore spread x sqrt(rho / (1 - rho) + 1 / n): a large overlap does not
+// average away an error the network made over all of it. The two orders of a pair see the same
+// overlap: each carries half its weight.
+//
+// The cameras' log-scales are solved jointly by weighted least squares: the counted pairs, and for
+// each camera without an anchor its network scale as a prior — its log-scale relative to its
+// group's level is 0 with standard deviation `prior_sigma` (a network's metric scale is off by a
+// different factor per image; the level that all of a group share is the gauge, below). Weak
+// evidence (few pixels, a wide spread) therefore moves a camera little, strong evidence moves it
+// to where the pair says. A pair whose residual is beyond `huber` standard errors is downweighted
+// (Huber's weight, by iterated reweighting), so one bad pair cannot drag a camera. A camera's
+// distance is measured from its own centre, so a scale moves the other camera's view of a point by
+// less than the scale; each round re-measures the pairs at the scales so far, until no log-scale
+// moves more than `tolerance`. Anchored cameras (LiDAR-aligned: their scale was measured) do not
+// move. A group of cameras linked by counted pairs without an anchor is only determined up to one
+// factor (the pairs and the priors are relative): its level is OverlapOptions::free_group_scale,
+// else the median of its cameras' corrections is 1 (each camera's own scale is one estimate of the
+// group's level; the median of them decides). Where the pairs are exact (distances right up to a
+// factor per camera) their spread is ~0, their weight overrules the priors and the rule recovers
+// the factors exactly.
 #include <ATen/core/Tensor.h>
 
 #include <cstddef>
@@ -42,6 +59,19 @@ constexpr int64_t kOverlapMinPixels = 50;
 // 16 % covers a network's relative depth error over a shared surface, not a foreground object
 // that one camera sees in front of the other's surface.
 constexpr double kOverlapBand = 0.15;
+// Standard deviation of a camera's network log metric scale about the rig's level: a monocular
+// network's metric scale is typically off by 10 - 30 % per image (log 0.2 is 22 %).
+constexpr double kOverlapPriorSigma = 0.2;
+// Correlation of two overlap pixels' errors: a network's depth error is mostly smooth over a
+// region of the image, common to a pair's pixels, so a pair's standard error is at least
+// sqrt(0.99 / 0.01) = 10 x the spread its pixels show. (The bundled model's pairs at true scales,
+// tests/predict/test_rig_predict.cpp's rig: RMS log ratio 13 x their RMS spread.)
+constexpr double kOverlapPixelCorrelation = 0.99;
+// Residual (in standard errors) beyond which a pair is downweighted (Huber).
+constexpr double kOverlapHuber = 2.0;
+// The least spread a pair's pixels are taken to have (log): float distances and the triangle
+// interpolation between pixels are exact to about this, so an exact pair is not infinitely sure.
+constexpr double kOverlapMinSpread = 1e-4;
 
 // One camera's prediction, as the overlap rule reads it.
 struct OverlapCamera {
@@ -55,8 +85,11 @@ struct OverlapCamera {
 };
 
 struct OverlapOptions {
-  int64_t min_pixels = kOverlapMinPixels;  // see kOverlapMinPixels
-  double band = kOverlapBand;              // see kOverlapBand
+  int64_t min_pixels = kOverlapMinPixels;               // see kOverlapMinPixels
+  double band = kOverlapBand;                           // see kOverlapBand
+  double prior_sigma = kOverlapPriorSigma;              // see kOverlapPriorSigma
+  double pixel_correlation = kOverlapPixelCorrelation;  // see kOverlapPixelCorrelation, in [0, 1)
+  double huber = kOverlapHuber;                         // see kOverlapHuber
   // The scale a group of reconciled cameras without an anchor is levelled to (the median of its
   // cameras' final scales); unset: the median of the group's corrections is 1.
   std::optional<double> free_group_scale;
@@ -74,6 +107,9 @@ struct OverlapPair {
   int64_t inliers = 0;   // of them within the band of the pair's median
   double log_ratio = 0;  // median over the inliers of log |i's point| - log |j's point|
   double residual = 0;   // median over all `pixels` of | |i's point| / |j's point| - 1 |
+  double spread = 0;     // of the inliers' log ratios: 1.4826 x their median absolute deviation
+  double sigma = 0;      // its standard error (log): spread x sqrt(rho / (1 - rho) + 1 / inliers)
+  double weight = 0;     // the robust weight it ended with: 1, less where it disagreed (Huber)
 };
 
 struct OverlapResult {

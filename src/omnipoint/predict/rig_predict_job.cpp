@@ -403,7 +403,10 @@ std::string JobRun::rig_json(const RigFrameResult& frame) const {
                         {"pixels", pair.pixels},
                         {"inliers", pair.inliers},
                         {"log_ratio", pair.log_ratio},
-                        {"residual", pair.residual}});
+                        {"residual", pair.residual},
+                        {"spread", pair.spread},
+                        {"sigma", pair.sigma},
+                        {"weight", pair.weight}});
   json report = {
       {"frame", rig_.frame},
       {"rig_scale", frame.rig_scale},

@@ -15,7 +15,7 @@
 //                "missing_cameras", "fused_points", "cameras": {NAME: {"scale", "scale_source",
 //                "disagreement", "applied_scale", "sparse_samples", "image",
 //                "body_from_camera"}}, "overlaps": [{"camera", "sees", "pixels", "inliers",
-//                "log_ratio", "residual"}]}
+//                "log_ratio", "residual", "spread", "sigma", "weight"}]}
 // The frame's folder appears complete or not at all (io::StagedFolder). The next frame's images
 // and sweep are decoded while the network runs on this one.
 //
