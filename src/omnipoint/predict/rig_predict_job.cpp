@@ -101,13 +101,6 @@ at::Tensor inverse_pose(const at::Tensor& body_from_camera) {
   return inverse;
 }
 
-// Brings a prediction to another metric scale: distances, points and depth times `factor`.
-void rescale(Prediction& p, double factor) {
-  p.distance = p.distance * factor;
-  p.points = p.points * factor;
-  p.depth = p.depth * factor;
-  p.metric_scale *= factor;
-}
 
 // A pose's 3 rows of 4 numbers, as the rig file writes them.
 json pose_rows(const at::Tensor& pose) {
@@ -306,7 +299,7 @@ void JobRun::follow_sequence(RigFrameResult& frame) {
   for (RigCameraResult& camera : frame.cameras) {
     camera.scale *= factor;
     camera.applied_scale *= factor;
-    rescale(camera.prediction, factor);
+    apply_metric_scale(camera.prediction, camera.prediction.metric_scale * factor);
     camera.prediction.notes.push_back("the rig scale follows the sequence (--scale " +
                                       std::string(scale_mode_name(options_.scale)) + "): " +
                                       number(applied) + " (the frame's own " + number(own) + ")");
@@ -358,7 +351,7 @@ void JobRun::set_scales(RigFrameResult& frame) const {
     camera.applied_scale = camera.scale_source == "network" ? frame.rig_scale : camera.scale;
     const double own = camera.prediction.metric_scale;
     if (camera.applied_scale == own) continue;
-    rescale(camera.prediction, camera.applied_scale / own);
+    apply_metric_scale(camera.prediction, camera.applied_scale);
     camera.prediction.notes.push_back(
         camera.scale_source == "overlap"
             ? "reconciled with the cameras it overlaps: scale " + number(camera.applied_scale) +
