@@ -61,15 +61,15 @@ TEST(RigLidar, SpinningSweepGivesEveryCameraItsTrueScale) {
       EXPECT_LT(std::abs(error), 0.01);
       // The plain z-buffer, for the record: the nearest of a pixel's returns biases it short.
       const at::Tensor m = sweep.camera_from_lidar;
-      const at::Tensor in_camera =
-          render.lidar_points.matmul(m.slice(0, 0, 3).slice(1, 0, 3).t()) +
-          m.slice(0, 0, 3).select(1, 3);
-      const double nearest = scale_error(
-          truth.distance, truth.mask,
-          geometry::sparse_depth_from_points(in_camera, camera.camera).depth);
+      const at::Tensor in_camera = render.lidar_points.matmul(m.slice(0, 0, 3).slice(1, 0, 3).t()) +
+                                   m.slice(0, 0, 3).select(1, 3);
+      const double nearest =
+          scale_error(truth.distance, truth.mask,
+                      geometry::sparse_depth_from_points(in_camera, camera.camera).depth);
       worst_nearest = std::max(worst_nearest, std::abs(nearest));
-      std::printf("scene %d %-5s: LiDAR rule scale error %+.3f %% (nearest return per pixel %+.3f %%)\n",
-                  static_cast<int>(seed), camera.name.c_str(), 100 * error, 100 * nearest);
+      std::printf(
+          "scene %d %-5s: LiDAR rule scale error %+.3f %% (nearest return per pixel %+.3f %%)\n",
+          static_cast<int>(seed), camera.name.c_str(), 100 * error, 100 * nearest);
     }
   }
   EXPECT_GT(worst_nearest, 0.01);  // the set shows the bias the rule removes
