@@ -2,7 +2,10 @@
 #include <ATen/CPUGeneratorImpl.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "omnipoint/camera/camera.h"
 #include "omnipoint/geometry/sparse_sampling.h"
@@ -254,4 +257,135 @@ TEST(SparseSampling, ResizedSparseMapKeepsSamplesAndTheNearest) {
   EXPECT_EQ(large[1][1].item<float>(), 5.0f);
   EXPECT_EQ(large[4][19].item<float>(), 3.0f);
   EXPECT_THROW(resize_sparse_map(at::zeros({8}), 2, 2), std::invalid_argument);
+}
+
+// A sweep taken beside the camera (kSensorSweep): a box in front of a wall, a LiDAR 0.6 m right
+// of and 0.3 m above the camera firing a grid coarser than the pixels. Returns from the wall
+// that the box hides from the camera land on the box's image, often in pixels without a box
+// return (the plain z-buffer keeps them there); the sweep rule keeps none of them, and every
+// sample it keeps is the distance of a surface point the camera sees, exactly.
+namespace {
+
+struct BoxAndWall {
+  double wall_z = 4.0;
+  // Both centres lie within the box's x and y extents: both see its front face only.
+  double lo[3] = {-0.4, -0.4, 1.8}, hi[3] = {0.8, 0.4, 2.2};
+  // The first hit of the ray origin + t · direction (t > 0), +inf without one.
+  double first_hit(const double* origin, const double* direction) const {
+    double t_near = -std::numeric_limits<double>::infinity();
+    double t_far = std::numeric_limits<double>::infinity();
+    for (int axis = 0; axis < 3; ++axis) {
+      const double a = (lo[axis] - origin[axis]) / direction[axis];
+      const double b = (hi[axis] - origin[axis]) / direction[axis];
+      t_near = std::max(t_near, std::min(a, b));
+      t_far = std::min(t_far, std::max(a, b));
+    }
+    const double wall = direction[2] > 0 ? (wall_z - origin[2]) / direction[2]
+                                         : std::numeric_limits<double>::infinity();
+    return t_near <= t_far && t_near > 0 ? std::min(t_near, wall) : wall;
+  }
+};
+
+}  // namespace
+
+TEST(SparseSampling, SweepFromBesideTheCameraKeepsOnlyWhatTheCameraSees) {
+  const int64_t w = 40, h = 30;
+  auto camera = make_camera("PINHOLE", w, h, {30.0, 30.0, 20.0, 15.0});
+  const BoxAndWall scene;
+  const double lidar[3] = {0.6, -0.3, 0.0};
+  std::vector<double> xyz;
+  for (double azimuth = -0.7; azimuth <= 0.7; azimuth += 0.05)
+    for (double elevation = -0.55; elevation <= 0.55; elevation += 0.05) {
+      const double d[3] = {std::sin(azimuth) * std::cos(elevation), std::sin(elevation),
+                           std::cos(azimuth) * std::cos(elevation)};
+      const double t = scene.first_hit(lidar, d);
+      for (int k = 0; k < 3; ++k) xyz.push_back(lidar[k] + t * d[k]);
+    }
+  const int64_t n = static_cast<int64_t>(xyz.size()) / 3;
+  const at::Tensor points = at::tensor(xyz, at::kDouble).view({n, 3});
+  // What the camera sees along each return's own ray.
+  std::vector<double> seen(n);
+  const double origin[3] = {0, 0, 0};
+  for (int64_t i = 0; i < n; ++i) {
+    const double* p = xyz.data() + 3 * i;
+    const double range = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    const double d[3] = {p[0] / range, p[1] / range, p[2] / range};
+    seen[i] = scene.first_hit(origin, d);
+  }
+  const at::Tensor range = points.norm(2, -1);
+  const at::Tensor visible = at::tensor(seen, at::kDouble) >= range * (1 - 1e-9);
+  const omnipoint::camera::Pixels projected = camera.project(points);
+  const at::Tensor cell = projected.pixels.floor().to(at::kLong);
+  const at::Tensor in_image = projected.valid & (cell.select(1, 0) >= 0) & (cell.select(1, 0) < w) &
+                              (cell.select(1, 1) >= 0) & (cell.select(1, 1) < h);
+  ASSERT_GT((in_image & ~visible).sum().item<int64_t>(), 20);  // hidden returns in the image
+
+  // Each sample's return: the one in its pixel with its value.
+  const auto hidden_samples = [&](const SparseDepth& s, int64_t* checked) {
+    int64_t hidden = 0;
+    for (int64_t i = 0; i < n; ++i) {
+      if (!in_image[i].item<bool>()) continue;
+      const int64_t x = cell[i][0].item<int64_t>(), y = cell[i][1].item<int64_t>();
+      const double r = range[i].item<double>();
+      if (!s.valid[y][x].item<bool>() || std::abs(s.depth[y][x].item<double>() - r) > 1e-12 * r)
+        continue;
+      if (checked) {
+        EXPECT_NEAR(s.depth[y][x].item<double>() / seen[i], 1.0, 1e-5) << x << ", " << y;
+        ++*checked;
+      }
+      if (!visible[i].item<bool>()) ++hidden;
+    }
+    return hidden;
+  };
+  // The plain z-buffer keeps hidden returns.
+  EXPECT_GT(hidden_samples(sparse_depth_from_points(points, camera), nullptr), 5);
+  const SparseDepth sweep = sparse_depth_from_points(points, camera, {}, SparseValue::Distance,
+                                                     PointSelection::kSensorSweep);
+  int64_t checked = 0;
+  EXPECT_EQ(hidden_samples(sweep, &checked), 0);
+  EXPECT_EQ(checked, sweep.valid.sum().item<int64_t>());
+  // Every pixel holding a box return the camera sees keeps a sample.
+  const at::Tensor on_box = in_image & visible & (range < 3.0);
+  ASSERT_GT(on_box.sum().item<int64_t>(), 20);
+  for (int64_t i = 0; i < n; ++i) {
+    if (!on_box[i].item<bool>()) continue;
+    EXPECT_TRUE(sweep.valid[cell[i][1].item<int64_t>()][cell[i][0].item<int64_t>()].item<bool>());
+  }
+  // Planar depth: the same samples.
+  const SparseDepth planar = sparse_depth_from_points(points, camera, {}, SparseValue::PlanarDepth,
+                                                      PointSelection::kSensorSweep);
+  EXPECT_TRUE(at::equal(planar.valid, sweep.valid));
+}
+
+// Within a pixel, the sweep rule keeps the return nearest to the pixel centre, where the
+// prediction it is compared with is sampled; the z-buffer keeps the nearest to the camera.
+TEST(SparseSampling, SweepKeepsTheReturnNearestThePixelCentre) {
+  auto camera = make_camera("PINHOLE", 10, 10, {10.0, 10.0, 5.0, 5.0});
+  // Pixel (6, 5) spans x in [6, 7), y in [5, 6): its centre is (6.5, 5.5). A slanted surface:
+  // 3.0 m at its corner (6.1, 5.1), 3.2 m near its centre (6.45, 5.55).
+  const auto at_pixel = [](double x, double y, double distance) {
+    const at::Tensor ray = at::tensor({(x - 5.0) / 10.0, (y - 5.0) / 10.0, 1.0}, at::kDouble);
+    return ray / ray.norm() * distance;
+  };
+  const at::Tensor points = at::stack({at_pixel(6.1, 5.1, 3.0), at_pixel(6.45, 5.55, 3.2)});
+  EXPECT_DOUBLE_EQ(sparse_depth_from_points(points, camera).depth[5][6].item<double>(), 3.0);
+  const SparseDepth sweep = sparse_depth_from_points(points, camera, {}, SparseValue::Distance,
+                                                     PointSelection::kSensorSweep);
+  EXPECT_EQ(sweep.valid.sum().item<int64_t>(), 1);
+  EXPECT_NEAR(sweep.depth[5][6].item<double>(), 3.2, 1e-12);
+  // With the pixel as the window (one other return suffices), a return clearly behind (4.0 m:
+  // 25 % > the 10 % margin) is hidden, even at the centre; a batch of two keeps the items apart.
+  SweepOcclusion pixel_window;
+  pixel_window.min_neighbours = 1;
+  const at::Tensor behind = at::stack({at_pixel(6.1, 5.1, 3.0), at_pixel(6.5, 5.5, 4.0)});
+  const SparseDepth two =
+      sparse_depth_from_points(at::stack({points, behind}), camera, {}, SparseValue::Distance,
+                               PointSelection::kSensorSweep, pixel_window);
+  EXPECT_NEAR(two.depth[0][5][6].item<double>(), 3.2, 1e-12);
+  EXPECT_NEAR(two.depth[1][5][6].item<double>(), 3.0, 1e-12);
+  SweepOcclusion bad;
+  bad.occlusion_margin = 0;
+  EXPECT_THROW(sparse_depth_from_points(points, camera, {}, SparseValue::Distance,
+                                        PointSelection::kSensorSweep, bad),
+               std::invalid_argument);
 }

@@ -37,14 +37,18 @@ void write_bytes(const fs::path& path, const void* data, size_t size) {
       path.string(), [&](std::ostream& out) { out.write(static_cast<const char*>(data), size); });
 }
 
-// The same scene as every format: a sparse set of pixels with planar depth in whole
-// millimetres (so the 16-bit PNG is exact), and the LiDAR points at those pixels' centres.
+// The same scene as every format: a sparse set of pixels on a smooth surface with planar depth
+// in whole millimetres (so the 16-bit PNG is exact), and the LiDAR points at those pixels'
+// centres (a surface: a point cloud is read as a sensor's sweep, whose returns behind nearer
+// ones around them are taken as hidden from the camera).
 TEST(SparseDepthFiles, EveryFormatGivesTheSameMap) {
   const camera::Camera camera = camera::parse_camera("PINHOLE 40 30 35 33 20.5 14.5");
   const at::Tensor rays = camera.ray_map().rays;
   at::Tensor depth_mm = at::zeros({30, 40}, at::kInt);
   const at::Tensor picked = at::rand({30, 40}, at::make_generator<at::CPUGeneratorImpl>(4)) < 0.1;
-  depth_mm.index_put_({picked}, at::randint(500, 9000, {picked.sum().item<int64_t>()}, at::kInt));
+  const at::Tensor column = at::arange(40, at::kInt).view({1, 40}),
+                   row = at::arange(30, at::kInt).view({30, 1});
+  depth_mm.index_put_({picked}, (1500 + 40 * column + 25 * row).expand({30, 40}).index({picked}));
   const at::Tensor depth = depth_mm.to(at::kDouble) / 1000.0;
 
   const fs::path dir = fresh_dir("formats");

@@ -310,8 +310,68 @@ at::Tensor resize_sparse_map(const at::Tensor& map, std::int64_t width, std::int
       .depth.to(map.scalar_type());
 }
 
+void SweepOcclusion::Check() const {
+  if (!(occlusion_margin > 0 && occlusion_margin < 1))
+    throw std::invalid_argument("sweep occlusion: the margin must be in (0, 1), got " +
+                                std::to_string(occlusion_margin));
+  if (min_neighbours < 1)
+    throw std::invalid_argument("sweep occlusion: min_neighbours must be >= 1, got " +
+                                std::to_string(min_neighbours));
+  if (max_radius < 0)
+    throw std::invalid_argument("sweep occlusion: max_radius must be >= 0, got " +
+                                std::to_string(max_radius));
+}
+
+namespace {
+
+// kSensorSweep's occlusion test (sparse_sampling.h): pixels (B, N, 2), distances (B, N) and
+// validity (B, N) on the CPU; true where a return is hidden behind nearer returns around it.
+at::Tensor hidden_returns(const at::Tensor& pixels, const at::Tensor& distance,
+                          const at::Tensor& valid, int64_t width, int64_t height,
+                          const SweepOcclusion& occlusion) {
+  const int64_t batch = pixels.size(0), cells = width * height;
+  const at::Tensor col = pixels.select(-1, 0).floor(), row = pixels.select(-1, 1).floor();
+  const at::Tensor inside = valid & (col >= 0) & (col < width) & (row >= 0) & (row < height);
+  const at::Tensor cell = at::where(inside, row * width + col, at::zeros_like(col)).to(at::kLong);
+  const double inf = std::numeric_limits<double>::infinity();
+  const SparseDepth zbuffer = rasterize_nearest(pixels, distance, distance, inside, width, height);
+  const at::Tensor nearest =
+      at::where(zbuffer.valid, zbuffer.depth.to(at::kDouble), at::full({}, inf, at::kDouble))
+          .unsqueeze(1);  // (B, 1, H, W)
+  const at::Tensor count = at::zeros({batch, cells}, at::kDouble)
+                               .scatter_add_(1, cell, inside.to(at::kDouble))
+                               .view({batch, 1, height, width});
+  at::Tensor front = at::full({batch, pixels.size(1)}, inf, at::kDouble);
+  at::Tensor margin = at::zeros({batch, pixels.size(1)}, at::kDouble);
+  at::Tensor settled = ~inside;
+  for (int64_t radius = 0; radius <= occlusion.max_radius; ++radius) {
+    const int64_t size = 2 * radius + 1;
+    // The window's nearest return and its number of returns (its own included).
+    const at::Tensor window_nearest =
+        radius == 0 ? nearest : -at::max_pool2d(-nearest, {size, size}, {1, 1}, {radius, radius});
+    const at::Tensor window_count =
+        radius == 0 ? count
+                    : at::avg_pool2d(count, {size, size}, {1, 1}, {radius, radius}) *
+                          static_cast<double>(size * size);
+    const at::Tensor enough = radius == occlusion.max_radius
+                                  ? at::ones_like(settled)
+                                  : window_count.view({batch, cells}).gather(1, cell) >
+                                        static_cast<double>(occlusion.min_neighbours) + 0.5;
+    const at::Tensor take = ~settled & enough;
+    front = at::where(take, window_nearest.view({batch, cells}).gather(1, cell), front);
+    // A smooth surface changes in proportion to the window's width: so does the margin.
+    margin = at::where(take, at::full({}, occlusion.occlusion_margin * (1.0 + radius)), margin);
+    settled = settled | take;
+  }
+  const at::Tensor d = distance.to(at::kDouble);
+  return inside & (d - front > margin * d);
+}
+
+}  // namespace
+
 SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Camera& camera,
-                                     const at::Tensor& valid, SparseValue value) {
+                                     const at::Tensor& valid, SparseValue value,
+                                     PointSelection selection, const SweepOcclusion& occlusion) {
   if (!points.defined() || points.dim() < 2 || points.size(-1) != 3 ||
       !at::isFloatingType(points.scalar_type())) {
     throw std::invalid_argument(
@@ -326,7 +386,32 @@ SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Cam
   if (valid.defined()) ok = ok.logical_and(valid);
   const at::Tensor distance = points.norm(2, -1);
   const at::Tensor stored = value == SparseValue::Distance ? distance : points.select(-1, 2);
-  return rasterize_nearest(projected.pixels, distance, stored, ok, camera.width(), camera.height());
+  if (selection == PointSelection::kNearest)
+    return rasterize_nearest(projected.pixels, distance, stored, ok, camera.width(),
+                             camera.height());
+  occlusion.Check();
+  // On the CPU in float64, as (batch, N).
+  const int64_t n = points.size(-2);
+  int64_t batch = 1;
+  for (std::size_t i = 0; i + 1 < point_shape.size(); ++i) batch *= point_shape[i];
+  const auto flat = [&](const at::Tensor& t) {
+    return t.reshape({batch, n})
+        .to(at::kCPU, t.scalar_type() == at::kBool ? at::kBool : at::kDouble);
+  };
+  const at::Tensor pixels = projected.pixels.reshape({batch, n, 2}).to(at::kCPU, at::kDouble);
+  const at::Tensor usable =
+      flat(ok.logical_and(at::isfinite(projected.pixels).all(-1)).logical_and(distance > 0));
+  const at::Tensor hidden =
+      hidden_returns(pixels, flat(distance), usable, camera.width(), camera.height(), occlusion);
+  // The rasteriser keeps a pixel's smallest key: here 1 + the squared offset from its centre.
+  const at::Tensor offset = (pixels - pixels.floor() - 0.5).pow(2).sum(-1) + 1.0;
+  const SparseDepth kept = rasterize_nearest(pixels, offset, flat(stored), usable & ~hidden,
+                                             camera.width(), camera.height());
+  auto shape = std::vector<int64_t>(point_shape.begin(), point_shape.end() - 1);
+  shape.push_back(camera.height());
+  shape.push_back(camera.width());
+  return {kept.depth.reshape(shape).to(points.device(), points.scalar_type()),
+          kept.valid.reshape(shape).to(points.device())};
 }
 
 }  // namespace omnipoint::geometry

@@ -73,11 +73,48 @@ SparseDepth rasterize_nearest(const at::Tensor& pixels, const at::Tensor& distan
 // original pixel centres (at most half a source pixel away).
 at::Tensor resize_sparse_map(const at::Tensor& map, std::int64_t width, std::int64_t height);
 
+// Which of the points that project into a pixel gives its sample (sparse_depth_from_points).
+//
+// kNearest: a z-buffer, the nearest point (the rule of datasets' own LiDAR labels).
+//
+// kSensorSweep: a sensor's returns (a LiDAR sweep) as samples of the surface the camera sees at
+// its pixel centres, to compare with a dense prediction there. Two parts:
+// - Occlusion: a sweep taken from another centre than the camera's (a LiDAR beside it) holds
+//   returns from surfaces the camera does not see; they project onto the nearer surface that
+//   hides them, among that surface's own returns. A return is dropped when a return in its
+//   image neighbourhood is nearer to the camera by more than (1 + radius) · `occlusion_margin`
+//   of its distance. The neighbourhood is the smallest square window (radius 0, 1, ...
+//   `max_radius` pixels) holding at least `min_neighbours` other returns: the pixel alone where
+//   the sweep is denser than the pixels, as wide as the gaps between its scan lines where it is
+//   sparser, so that a hidden return always has the hiding surface's returns to be compared
+//   with. The margin is the depth step taken as an occluding edge; it grows with the window as
+//   a smooth surface's change across it does, which stays below it unless the surface is seen
+//   near grazing (at 10 % per pixel of radius: within about 15° of grazing for 3° pixels, 45°
+//   for 2.5° windows of radius 3 at 1.6° pixels). An occluder nearer than the margin to what it
+//   hides is not detected; visible returns within the window of a nearer surface's edge are
+//   dropped as well.
+// - Choice: among a pixel's remaining returns, the one projecting nearest to the pixel centre
+//   (ties: the smallest value), not the nearest to the camera: where many returns share a
+//   pixel, the nearest is the one at the pixel's near edge on any slanted surface, a bias of up
+//   to the distance's change across the pixel.
+enum class PointSelection { kNearest, kSensorSweep };
+struct SweepOcclusion {
+  double occlusion_margin = 0.1;  // relative depth step per pixel of window radius (above)
+  int64_t min_neighbours = 3;     // returns besides its own that a window must hold
+  int64_t max_radius = 8;         // pixels: the widest window
+
+  // std::invalid_argument, one line, for a margin not in (0, 1), neighbours < 1 or radius < 0.
+  void Check() const;
+};
+
 // A point cloud in the camera frame (..., N, 3) (e.g. LiDAR after its extrinsics), with an
 // optional validity (..., N) for padded batches, as a sparse map through any camera model:
-// Camera::project, then rasterize_nearest. Stores distances (default) or planar depth z.
+// Camera::project, then one sample per pixel by `selection` (above). Stores distances (default)
+// or planar depth z.
 SparseDepth sparse_depth_from_points(const at::Tensor& points, const camera::Camera& camera,
                                      const at::Tensor& valid = {},
-                                     SparseValue value = SparseValue::Distance);
+                                     SparseValue value = SparseValue::Distance,
+                                     PointSelection selection = PointSelection::kNearest,
+                                     const SweepOcclusion& occlusion = {});
 
 }  // namespace omnipoint::geometry

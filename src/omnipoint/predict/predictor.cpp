@@ -299,7 +299,11 @@ at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int
   const camera::Camera image_camera = camera->width() == width && camera->height() == height
                                           ? *camera
                                           : camera_for_image(*camera, width, height);
-  return geometry::sparse_depth_from_points(points, image_camera).depth.to(at::kFloat);
+  // A sensor's sweep, compared with the prediction at pixel centres (sparse_sampling.h).
+  return geometry::sparse_depth_from_points(points, image_camera, {},
+                                            geometry::SparseValue::Distance,
+                                            geometry::PointSelection::kSensorSweep)
+      .depth.to(at::kFloat);
 }
 
 std::vector<std::string> sparse_depth_warnings(int64_t in_image, int64_t cloud_points, int64_t used,

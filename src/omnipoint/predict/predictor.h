@@ -50,7 +50,8 @@ struct SparseDepthInput {
   at::Tensor depth_map;
   bool depth_is_planar = true;
   // Or a point cloud (N, 3) in metres (e.g. a LiDAR scan), projected through the camera with
-  // a z-buffer; camera_from_lidar (4, 4) maps it into the camera frame (identity if undefined).
+  // the rule for a sensor's sweep (sparse_distance_map); camera_from_lidar (4, 4) maps it into
+  // the camera frame (identity if undefined).
   at::Tensor lidar_points;
   at::Tensor camera_from_lidar;
   // What places the point cloud in the camera frame, as the warning about a cloud that misses
@@ -175,7 +176,9 @@ class Model {
 
 // The sparse input as a (H, W) metric radial-distance map of the image: depth maps checked
 // against the size and converted along `rays` (H, W, 3) when planar; point clouds projected
-// through `camera` (required for them). Zero where there is no sample.
+// through `camera` (required for them) as a sensor's sweep: returns hidden from the camera behind
+// nearer ones dropped, each pixel's sample the return nearest to its centre
+// (geometry::PointSelection::kSensorSweep). Zero where there is no sample.
 at::Tensor sparse_distance_map(const SparseDepthInput& input, int64_t width, int64_t height,
                                const at::Tensor& rays, const camera::Camera* camera);
 
