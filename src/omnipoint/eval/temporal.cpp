@@ -125,6 +125,7 @@ TemporalStability score_predicted_sequence(const std::string& predictions,
                                            const std::string& truth) {
   const std::vector<data::synth::CameraPathFrame> path = data::synth::read_camera_path(truth);
   std::vector<SequenceFrame> frames;
+  frames.reserve(path.size());
   std::optional<camera::Camera> camera;
   for (const data::synth::CameraPathFrame& frame : path)
     frames.push_back(

@@ -101,7 +101,6 @@ at::Tensor inverse_pose(const at::Tensor& body_from_camera) {
   return inverse;
 }
 
-
 // A pose's 3 rows of 4 numbers, as the rig file writes them.
 json pose_rows(const at::Tensor& pose) {
   const at::Tensor m = pose.to(at::kDouble).contiguous();
