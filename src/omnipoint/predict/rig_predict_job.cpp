@@ -25,6 +25,7 @@
 #include "omnipoint/predict/inputs.h"
 #include "omnipoint/predict/median.h"
 #include "omnipoint/predict/rig_overlap.h"
+#include "omnipoint/predict/sequence_record.h"
 
 namespace omnipoint::predict {
 
@@ -136,25 +137,13 @@ struct FinishedFrame {
 };
 
 // The finished frame's record in `folder`, or nullopt when the folder is not a finished frame
-// of a rig sequence (it is predicted again and replaced). A record of another scale mode is an
-// error: the estimate cannot continue it.
+// of a rig sequence (read_sequence_record).
 std::optional<FinishedFrame> finished_frame(const fs::path& folder, ScaleMode mode) {
-  const fs::path file = folder / "rig.json";
-  if (!fs::is_regular_file(file)) return std::nullopt;
-  json record;
+  const std::optional<json> record = read_sequence_record(folder / "rig.json", mode);
+  if (!record) return std::nullopt;
   try {
-    record = json::parse(io::read_file(file.string())).at("sequence");
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-  const std::string recorded = record.value("scale_mode", "");
-  if (recorded != scale_mode_name(mode))
-    throw std::invalid_argument(
-        "--out " + folder.parent_path().string() + " holds frames of a --scale " + recorded +
-        " run (" + file.string() + "): rerun with --scale " + recorded + " or use another --out");
-  try {
-    return FinishedFrame{record.at("rig_scale").get<double>(),
-                         record.at("frame_rig_scale").get<double>()};
+    return FinishedFrame{record->at("rig_scale").get<double>(),
+                         record->at("frame_rig_scale").get<double>()};
   } catch (const std::exception&) {
     return std::nullopt;
   }

@@ -20,6 +20,7 @@
 #include "omnipoint/io/image.h"
 #include "omnipoint/predict/inputs.h"
 #include "omnipoint/predict/median.h"
+#include "omnipoint/predict/sequence_record.h"
 
 namespace omnipoint::predict {
 
@@ -37,26 +38,16 @@ struct FinishedFrame {
 };
 
 // The finished frame's record in `folder`, or nullopt when the folder is not a finished frame
-// of a sequence. A record of another scale mode is an error: the estimate cannot continue it.
+// of a sequence (read_sequence_record).
 std::optional<FinishedFrame> finished_frame(const fs::path& folder, ScaleMode mode) {
   const fs::path file = folder / "camera.json";
-  if (!fs::is_regular_file(file)) return std::nullopt;
-  json record;
-  try {
-    record = json::parse(io::read_file(file.string())).at("sequence");
-  } catch (const std::exception&) {
-    return std::nullopt;  // not a sequence's frame: predicted again (its folder is replaced)
-  }
-  const std::string recorded = record.value("scale_mode", "");
-  if (recorded != scale_mode_name(mode))
-    throw std::invalid_argument(
-        "--out " + folder.parent_path().string() + " holds frames of a --scale " + recorded +
-        " run (" + file.string() + "): rerun with --scale " + recorded + " or use another --out");
+  const std::optional<json> record = read_sequence_record(file, mode);
+  if (!record) return std::nullopt;
   FinishedFrame frame;
   frame.camera_json = file;
-  frame.network_scale = record.at("network_metric_scale").get<double>();
-  frame.metric_scale = record.at("metric_scale").get<double>();
-  frame.camera_origin = record.value("camera", "");
+  frame.network_scale = record->at("network_metric_scale").get<double>();
+  frame.metric_scale = record->at("metric_scale").get<double>();
+  frame.camera_origin = record->value("camera", "");
   return frame;
 }
 
