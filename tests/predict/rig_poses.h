@@ -1,6 +1,7 @@
 #pragma once
-// Rotations and 4x4 poses for the rig tests (float64).
+// Rotations and 4x4 poses for the rig tests (float64), and a pose as a rig file writes it.
 #include <ATen/ATen.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <vector>
@@ -24,6 +25,17 @@ inline at::Tensor pose(const at::Tensor& rotation, const std::vector<double>& tr
   m.slice(0, 0, 3).slice(1, 0, 3).copy_(rotation);
   m.slice(0, 0, 3).select(1, 3).copy_(at::tensor(translation, at::kDouble));
   return m;
+}
+
+// The 3x4 rows of a rig file's pose.
+inline nlohmann::json pose_rows(const at::Tensor& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < 4; ++j) row.push_back(m[i][j].item<double>());
+    out.push_back(row);
+  }
+  return out;
 }
 
 }  // namespace omnipoint::predict::test_rig

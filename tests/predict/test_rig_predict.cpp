@@ -44,18 +44,10 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 using test_rig::pose;
+using test_rig::pose_rows;
 using test_rig::rotation_x;
 using test_rig::rotation_y;
 
-json rows(const at::Tensor& m) {  // the 3x4 rows of a rig file
-  json out = json::array();
-  for (int i = 0; i < 3; ++i) {
-    json row = json::array();
-    for (int j = 0; j < 4; ++j) row.push_back(m[i][j].item<double>());
-    out.push_back(row);
-  }
-  return out;
-}
 at::Tensor transform(const at::Tensor& m, const at::Tensor& points) {  // (N, 3) by a 4x4
   return points.matmul(m.slice(0, 0, 3).slice(1, 0, 3).t()) + m.slice(0, 0, 3).select(1, 3);
 }
@@ -78,11 +70,13 @@ struct SyntheticRig {
   std::string rig_text(const std::string& lidar_format = "kitti") const {
     json cameras = json::array();
     for (const RigView& v : views)
-      cameras.push_back(
-          {{"name", v.name}, {"camera", v.spec}, {"body_from_camera", rows(v.body_from_camera)}});
-    return json{{"frame", "vehicle"},
-                {"cameras", cameras},
-                {"lidar", {{"format", lidar_format}, {"body_from_lidar", rows(body_from_lidar)}}}}
+      cameras.push_back({{"name", v.name},
+                         {"camera", v.spec},
+                         {"body_from_camera", pose_rows(v.body_from_camera)}});
+    return json{
+        {"frame", "vehicle"},
+        {"cameras", cameras},
+        {"lidar", {{"format", lidar_format}, {"body_from_lidar", pose_rows(body_from_lidar)}}}}
         .dump();
   }
   const RigView& view(const std::string& name) const {
@@ -343,7 +337,7 @@ TEST_F(RigPredict, LidarSweepGivesEveryCameraItsTrueScale) {
 
   // A sweep in the wrong frame (the rig says it is the body's) reaches no camera's view right.
   json rig = json::parse(synthetic_rig().rig_text());
-  rig["lidar"]["body_from_lidar"] = rows(at::eye(4, at::kDouble));
+  rig["lidar"]["body_from_lidar"] = pose_rows(at::eye(4, at::kDouble));
   std::ofstream(dir_ / "rig.json") << rig.dump();
   RigPredictJob(options_).Run();
   EXPECT_GT(std::abs(rig_report("f000")["cameras"]["front"]["scale"].get<double>() - 1.0), 0.02);

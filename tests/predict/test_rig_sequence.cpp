@@ -38,21 +38,12 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 using test_rig::pose;
+using test_rig::pose_rows;
 using test_rig::rotation_y;
 
 constexpr int64_t kFrames = 6;
 constexpr std::uint64_t kSeed = 5;
 constexpr double kStep = 0.08, kYawDeg = 2.0;
-
-json rows(const at::Tensor& m) {  // the 3x4 rows of a rig file
-  json out = json::array();
-  for (int i = 0; i < 3; ++i) {
-    json row = json::array();
-    for (int j = 0; j < 4; ++j) row.push_back(m[i][j].item<double>());
-    out.push_back(row);
-  }
-  return out;
-}
 
 // Two pinholes looking forward and back (their views do not overlap: both keep the rig scale
 // of the median rule) and a LiDAR above them, its axes a vehicle's (x forward, y left, z up).
@@ -68,13 +59,13 @@ std::string rig_text() {
   for (const auto& [name, body_from_camera] : mounts())
     cameras.push_back({{"name", name},
                        {"camera", "PINHOLE 80 60 64 64 40 30"},
-                       {"body_from_camera", rows(body_from_camera)}});
+                       {"body_from_camera", pose_rows(body_from_camera)}});
   return json{
       {"cameras", cameras},
       {"lidar",
        {{"format", "kitti"},
         {"body_from_lidar",
-         rows(pose(
+         pose_rows(pose(
              at::tensor({0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0}, at::kDouble).view({3, 3}),
              {0.0, -0.3, 0.0}))}}}}
       .dump();

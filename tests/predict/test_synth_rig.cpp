@@ -34,18 +34,9 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 using predict::test_rig::pose;
+using predict::test_rig::pose_rows;
 using predict::test_rig::rotation_x;
 using predict::test_rig::rotation_y;
-
-json rows(const at::Tensor& m) {
-  json out = json::array();
-  for (int i = 0; i < 3; ++i) {
-    json row = json::array();
-    for (int j = 0; j < 4; ++j) row.push_back(m[i][j].item<double>());
-    out.push_back(row);
-  }
-  return out;
-}
 
 // A pinhole, a fisheye of more than 180 degrees and a panorama on a vehicle body (x forward,
 // y left, z up), and a LiDAR on the roof.
@@ -58,16 +49,17 @@ std::string vehicle_rig() {
       {"cameras",
        {{{"name", "front"},
          {"camera", "PINHOLE 40 30 30 30 20 15"},
-         {"body_from_camera", rows(pose(forward, {1.5, 0.0, 1.4}))}},
+         {"body_from_camera", pose_rows(pose(forward, {1.5, 0.0, 1.4}))}},
         {{"name", "left"},
          {"camera", "MEI 32 32 16 16 16 16 1.35 0 0 0 0"},
-         {"body_from_camera", rows(pose(forward.matmul(rotation_y(-M_PI / 2)), {0.5, 0.9, 1.0}))}},
+         {"body_from_camera",
+          pose_rows(pose(forward.matmul(rotation_y(-M_PI / 2)), {0.5, 0.9, 1.0}))}},
         {{"name", "pano"},
          {"camera", "EQUIRECTANGULAR 48 24"},
-         {"body_from_camera", rows(pose(forward.matmul(rotation_x(0.1)), {0.0, 0.0, 1.8}))}}}},
+         {"body_from_camera", pose_rows(pose(forward.matmul(rotation_x(0.1)), {0.0, 0.0, 1.8}))}}}},
       {"lidar",
        {{"format", "kitti"},
-        {"body_from_lidar", rows(pose(at::eye(3, at::kDouble), {0.2, 0.0, 1.9}))}}}}
+        {"body_from_lidar", pose_rows(pose(at::eye(3, at::kDouble), {0.2, 0.0, 1.9}))}}}}
       .dump();
 }
 
